@@ -1,0 +1,1 @@
+//! Generic two-point boundary value problem solver (work in progress).

@@ -1,0 +1,3 @@
+fn main() {
+    println!("suslov {}", env!("CARGO_PKG_VERSION"));
+}

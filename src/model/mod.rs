@@ -1,0 +1,1 @@
+//! The generated Suslov model (work in progress).
