@@ -1,0 +1,373 @@
+"""The emitter: straight-line programs -> Rust source.
+
+We own the printer. sympy 1.14's `rust_code` silently drops parentheses when symbols are real
+(`a*(b+1)` prints as `a*b + 1.0`; sympy issues #29709, #28418, #28776), so this module prints
+the few node types the derivation produces itself, with explicit precedence handling, every
+literal an f64, and raises on anything it does not know. The generated test vectors
+(sympy/mpmath evaluation at seeded points, checked by tests/generated_vectors.rs to ~1e-12)
+prove the printed Rust equal to sympy's own evaluation.
+"""
+
+from dataclasses import dataclass, field
+
+import sympy as sp
+
+# Precedence levels of the printed Rust expression.
+ADD, MUL, NEG, ATOM = 1, 2, 3, 4
+
+
+class RustPrinter:
+    def __init__(self, names):
+        self.names = names  # Symbol -> Rust identifier
+
+    def __call__(self, e):
+        return self._p(sp.sympify(e))[0]
+
+    # Each _p returns (text, precedence of its outermost operator).
+    def _p(self, e):
+        if e.is_Symbol:
+            if e not in self.names:
+                raise KeyError(f"no Rust name for symbol {e}")
+            return self.names[e], ATOM
+        if e.is_Integer:
+            v = int(e)
+            return (f"{v}.0", ATOM) if v >= 0 else (f"-{-v}.0", NEG)
+        if e.is_Rational:
+            p, q = int(e.p), int(e.q)
+            return f"({p}.0/{q}.0)", ATOM
+        if e.is_Float:
+            v = float(e)
+            return (repr(v), ATOM) if v >= 0 else (f"({repr(v)})", ATOM)
+        if e.is_Add:
+            return self._add(e)
+        if e.is_Mul:
+            return self._mul(e)
+        if e.is_Pow:
+            return self._pow(e)
+        if isinstance(e, sp.Function):
+            return self._func(e)
+        raise TypeError(f"cannot print {type(e).__name__}: {e}")
+
+    def _wrap(self, e, min_prec):
+        text, prec = self._p(e)
+        return text if prec >= min_prec else f"({text})"
+
+    def _add(self, e):
+        terms = e.as_ordered_terms()
+        out = ""
+        for i, t in enumerate(terms):
+            neg = t.could_extract_minus_sign()
+            body = self._wrap(-t if neg else t, MUL)
+            if i == 0:
+                out = f"-{self._wrap(-t, NEG)}" if neg else body
+            else:
+                out += f" - {body}" if neg else f" + {body}"
+        return out, ADD
+
+    def _mul(self, e):
+        coeff, factors = e.as_coeff_mul()
+        num, den = [], []
+        for f in factors:
+            if f.is_Pow and f.exp.is_Rational and f.exp.is_negative:
+                den.append(sp.Pow(f.base, -f.exp))
+            else:
+                num.append(f)
+        if coeff.is_Rational and coeff.q != 1:
+            if coeff.p not in (1, -1):
+                num.insert(0, sp.Integer(abs(coeff.p)))
+            den.insert(0, sp.Integer(coeff.q))
+            sign = -1 if coeff.p < 0 else 1
+        elif coeff in (1, -1):
+            sign = int(coeff)
+        else:
+            sign = -1 if coeff.is_negative else 1
+            num.insert(0, -coeff if sign < 0 else coeff)
+        text = "*".join(self._wrap(f, MUL) for f in num) if num else "1.0"
+        if den:
+            if len(den) == 1:
+                d = self._wrap(den[0], NEG + 1)
+            else:
+                d = "(" + "*".join(self._wrap(f, MUL) for f in den) + ")"
+            text = f"{text}/{d}"
+        if sign < 0:
+            # unary minus binds tighter than * and /: -a*b/c == ((-a)*b)/c, the same value.
+            return f"-{text}", MUL
+        if len(num) == 1 and not den:
+            return text, self._p(num[0])[1]
+        return text, MUL
+
+    def _receiver(self, b):
+        text, prec = self._p(b)
+        if b.is_Number:
+            return f"({text}_f64)" if prec == ATOM and not text.startswith("(") else f"{text}"
+        return text if prec == ATOM and b.is_Symbol else f"({text})"
+
+    def _pow(self, e):
+        b, x = e.base, e.exp
+        if x.is_Integer:
+            k = int(x)
+            if k == 1:
+                return self._p(b)
+            if k < 0:
+                return f"1.0/{self._wrap(sp.Pow(b, -x), NEG + 1)}", MUL
+            return f"{self._receiver(b)}.powi({k})", ATOM
+        if x == sp.Rational(1, 2):
+            return f"{self._receiver(b)}.sqrt()", ATOM
+        if x == -sp.Rational(1, 2):
+            return f"1.0/{self._receiver(b)}.sqrt()", MUL
+        if x == sp.Rational(1, 3):
+            return f"{self._receiver(b)}.cbrt()", ATOM
+        return f"{self._receiver(b)}.powf({self(x)})", ATOM
+
+    FUNCS = {sp.tanh: "tanh", sp.sinh: "sinh", sp.cosh: "cosh", sp.exp: "exp", sp.log: "ln",
+             sp.sin: "sin", sp.cos: "cos", sp.tan: "tan", sp.Abs: "abs"}
+
+    def _func(self, e):
+        name = self.FUNCS.get(type(e))
+        if name is None:
+            raise TypeError(f"cannot print function {type(e).__name__}")
+        return f"{self._receiver(e.args[0])}.{name}()", ATOM
+
+
+# ---------------------------------------------------------------------------------------------
+# Functions
+
+
+@dataclass
+class Arg:
+    """An input array: `name: &[f64; len(symbols)]`, unpacked into one local per symbol."""
+    name: str
+    symbols: list
+    doc: str
+    sample: object = None  # callable(rng, index) -> float, for test vectors
+
+
+@dataclass
+class Scalar:
+    """A scalar input passed by value."""
+    symbol: sp.Symbol
+    doc: str
+    sample: object = None
+
+    @property
+    def name(self):
+        return str(self.symbol)
+
+
+@dataclass
+class Out:
+    """An output: 'return' (scalar), 'array' (&mut [f64; n]) or 'matrix' (&mut [[f64; c]; r])."""
+    name: str
+    exprs: object
+    kind: str
+    doc: str
+
+
+@dataclass
+class Function:
+    name: str
+    doc: str
+    program: object
+    args: list
+    outputs: list
+    samples: list = field(default_factory=list)  # filled by the generator
+
+
+def rust_ident(sym):
+    return str(sym)
+
+
+def _needed_lets(program, exprs):
+    defined = {s: e for s, e in program.lets}
+    order = {s: i for i, (s, _) in enumerate(program.lets)}
+    need, stack = set(), [s for e in exprs for s in sp.sympify(e).free_symbols if s in defined]
+    while stack:
+        s = stack.pop()
+        if s in need:
+            continue
+        need.add(s)
+        stack.extend(t for t in defined[s].free_symbols if t in defined)
+    return [(s, defined[s]) for s in sorted(need, key=order.get)]
+
+
+def flat_outputs(fn):
+    out = []
+    for o in fn.outputs:
+        if o.kind == "matrix":
+            out.extend(list(o.exprs))  # row-major
+        elif o.kind == "array":
+            out.extend(list(o.exprs))
+        else:
+            out.append(o.exprs)
+    return [sp.sympify(e) for e in out]
+
+
+def emit_body(fn, indent="    "):
+    """cse over the needed assignments and outputs, in dependency order."""
+    outs = flat_outputs(fn)
+    lets = _needed_lets(fn.program, outs)
+    exprs = [e for _, e in lets] + outs
+    temps = sp.numbered_symbols("x")
+    repl, reduced = sp.cse(exprs, symbols=temps, order="canonical")
+    nodes = {}  # symbol -> expr
+    index = {}
+    for i, (s, e) in enumerate(repl):
+        nodes[s] = e
+        index[s] = (1, i)
+    for i, ((s, _), e) in enumerate(zip(lets, reduced[: len(lets)])):
+        nodes[s] = e
+        index[s] = (0, i)
+    out_exprs = reduced[len(lets):]
+    emitted, order = set(), []
+
+    def visit(s):
+        if s in emitted:
+            return
+        emitted.add(s)
+        deps = sorted((t for t in nodes[s].free_symbols if t in nodes), key=index.get)
+        for t in deps:
+            visit(t)
+        order.append(s)
+
+    for e in out_exprs:
+        for t in sorted((t for t in e.free_symbols if t in nodes), key=index.get):
+            visit(t)
+    names = {s: rust_ident(s) for s in nodes}
+    for a in fn.args:
+        for s in (a.symbols if isinstance(a, Arg) else [a.symbol]):
+            names[s] = rust_ident(s)
+    pr = RustPrinter(names)
+    lines = []
+    for a in fn.args:
+        if isinstance(a, Arg):
+            for i, s in enumerate(a.symbols):
+                lines.append(f"{indent}let {names[s]} = {a.name}[{i}];")
+    for s in order:
+        lines.append(f"{indent}let {names[s]} = {pr(nodes[s])};")
+    k = 0
+    for o in fn.outputs:
+        if o.kind == "return":
+            lines.append(f"{indent}{pr(out_exprs[k])}")
+            k += 1
+        elif o.kind == "array":
+            for i in range(len(o.exprs)):
+                lines.append(f"{indent}{o.name}[{i}] = {pr(out_exprs[k])};")
+                k += 1
+        else:
+            r, c = o.exprs.shape
+            for i in range(r):
+                for j in range(c):
+                    lines.append(f"{indent}{o.name}[{i}][{j}] = {pr(out_exprs[k])};")
+                    k += 1
+    return lines
+
+
+def signature(fn):
+    params, ret = [], ""
+    for a in fn.args:
+        if isinstance(a, Arg):
+            params.append(f"{a.name}: &[f64; {len(a.symbols)}]")
+        else:
+            params.append(f"{a.name}: f64")
+    for o in fn.outputs:
+        if o.kind == "return":
+            ret = " -> f64"
+        elif o.kind == "array":
+            params.append(f"{o.name}: &mut [f64; {len(o.exprs)}]")
+        else:
+            r, c = o.exprs.shape
+            params.append(f"{o.name}: &mut [[f64; {c}]; {r}]")
+    return f"pub fn {fn.name}({', '.join(params)}){ret}"
+
+
+def doc_lines(fn):
+    lines = [f"/// {line}" if line else "///" for line in fn.doc.strip().splitlines()]
+    lines.append("///")
+    lines.append("/// # Arguments")
+    for a in fn.args:
+        if isinstance(a, Arg):
+            syms = ", ".join(str(s) for s in a.symbols)
+            lines.append(f"/// * `{a.name}`: {a.doc} = [{syms}]")
+        else:
+            lines.append(f"/// * `{a.name}`: {a.doc}")
+    for o in fn.outputs:
+        if o.kind == "return":
+            lines.append(f"/// * returns {o.doc}")
+        else:
+            lines.append(f"/// * `{o.name}` (written, every entry): {o.doc}")
+    return lines
+
+
+def emit_function(fn):
+    return "\n".join(doc_lines(fn) + [signature(fn) + " {"] + emit_body(fn) + ["}"])
+
+
+def fmt_f64(v):
+    f = float(v)
+    r = repr(f)
+    if "inf" in r or "nan" in r:
+        raise ValueError("non-finite test vector")
+    if "e" not in r and "." not in r:
+        r += ".0"
+    return r
+
+
+def emit_vector_checks(functions):
+    """Rust source of `check_vectors`, calling each generated function at its sample points."""
+    lines = [
+        "/// Calls every generated function at the generator's seeded sample points and returns",
+        "/// one message per output that differs from sympy's (mpmath, 40 digits) evaluation by",
+        "/// more than `rtol * (1 + |expected|)`.",
+        "pub fn check_vectors(rtol: f64) -> Vec<String> {",
+        "    let mut failures = Vec::new();",
+        "    let mut count = 0usize;",
+    ]
+    for fn in functions:
+        for k, (inputs, expected) in enumerate(fn.samples):
+            lines.append("    {")
+            call = []
+            for a, vals in zip(fn.args, inputs):
+                if isinstance(a, Arg):
+                    lines.append(f"        let {a.name}: [f64; {len(vals)}] = "
+                                 f"[{', '.join(fmt_f64(v) for v in vals)}];")
+                    call.append(f"&{a.name}")
+                else:
+                    lines.append(f"        let {a.name}: f64 = {fmt_f64(vals)};")
+                    call.append(a.name)
+            got = []
+            ret = None
+            for o in fn.outputs:
+                if o.kind == "return":
+                    ret = o.name
+                    got.append(f"std::iter::once({ret})")
+                elif o.kind == "array":
+                    lines.append(f"        let mut {o.name} = [0.0f64; {len(o.exprs)}];")
+                    call.append(f"&mut {o.name}")
+                    got.append(f"{o.name}.iter().copied()")
+                else:
+                    r, c = o.exprs.shape
+                    lines.append(f"        let mut {o.name} = [[f64::NAN; {c}]; {r}];")
+                    call.append(f"&mut {o.name}")
+                    got.append(f"{o.name}.iter().flatten().copied()")
+            invocation = f"{fn.name}({', '.join(call)})"
+            if ret:
+                lines.append(f"        let {ret} = {invocation};")
+            else:
+                lines.append(f"        {invocation};")
+            chain = got[0] + "".join(f".chain({g})" for g in got[1:])
+            lines.append(f"        let got: Vec<f64> = {chain}.collect();")
+            lines.append(f"        let expected: [f64; {len(expected)}] = "
+                         f"[{', '.join(fmt_f64(v) for v in expected)}];")
+            lines.append("        assert_eq!(got.len(), expected.len());")
+            lines.append("        for (i, (g, e)) in got.iter().zip(expected.iter()).enumerate() {")
+            lines.append("            count += 1;")
+            lines.append("            if !((g - e).abs() <= rtol * (1.0 + e.abs())) {")
+            lines.append(f"                failures.push(format!(\"{fn.name} sample {k} output {{i}}: "
+                         "got {g:e}, sympy {e:e}\"));")
+            lines.append("            }")
+            lines.append("        }")
+            lines.append("    }")
+    lines.append("    assert!(count > 0);")
+    lines.append("    failures")
+    lines.append("}")
+    return "\n".join(lines)

@@ -1,0 +1,343 @@
+#!/usr/bin/env python3
+"""Generate the Rust model from model.py: `python3 codegen/generate.py --out DIR`.
+
+Writes, deterministically (run with PYTHONHASHSEED=0; build.rs does):
+  DIR/suslov_model.rs    the generated functions and metadata (included by src/model/mod.rs)
+  DIR/suslov_vectors.rs  `check_vectors`: sympy-evaluated outputs at seeded sample points
+  DIR/formulas.txt       the derived formulas in readable form (guarded by an insta snapshot)
+
+Exit status 3 means the environment is wrong (sympy missing or not the pinned version).
+"""
+
+import argparse
+import hashlib
+import os
+import random
+import sys
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def pinned_sympy():
+    with open(os.path.join(HERE, "requirements.txt")) as fh:
+        for line in fh:
+            line = line.split("#")[0].strip()
+            if line.lower().startswith("sympy=="):
+                return line.split("==")[1].strip()
+    raise SystemExit("codegen/requirements.txt does not pin sympy")
+
+
+def source_hash():
+    """sha256 over the codegen sources (top-level *.py and requirements.txt), sorted by name.
+
+    build.rs computes the same hash to decide whether a committed copy is current."""
+    h = hashlib.sha256()
+    names = sorted(n for n in os.listdir(HERE)
+                   if n.endswith(".py") or n == "requirements.txt")
+    for n in names:
+        with open(os.path.join(HERE, n), "rb") as fh:
+            data = fh.read()
+        h.update(n.encode() + b"\0" + data + b"\0")
+    return h.hexdigest()
+
+
+try:
+    import sympy as sp
+except ImportError:
+    sys.stderr.write("sympy is not installed: pip install -r codegen/requirements.txt\n")
+    sys.exit(3)
+
+if sp.__version__ != pinned_sympy():
+    sys.stderr.write(f"sympy {sp.__version__} found, {pinned_sympy()} pinned: "
+                     "pip install -r codegen/requirements.txt\n")
+    sys.exit(3)
+
+sys.path.insert(0, HERE)
+import derive as D  # noqa: E402
+import model as M  # noqa: E402
+from emit_rust import Arg, Function, Out, Scalar, emit_function, emit_vector_checks, \
+    flat_outputs  # noqa: E402
+from slp import Program  # noqa: E402
+
+T_SPAN = sp.Symbol("t_span", positive=True)
+S_NORM = sp.Symbol("s", real=True)
+OMA = M.vec("OmEnd")
+
+
+def u(lo, hi):
+    return lambda rng, i: rng.uniform(lo, hi)
+
+
+def state_sample(rng, i):
+    if 3 <= i < 6:  # xi: keep away from 0 (Suslov's equations need xi != 0)
+        return rng.choice([-1, 1]) * rng.uniform(0.4, 1.6)
+    return rng.uniform(-2.0, 2.0)
+
+
+def param_sample(rng, i):
+    return rng.uniform(0.5, 3.0) if i < 3 else rng.uniform(0.1, 2.0)
+
+
+def args_common():
+    return (
+        Arg("y", M.STATE, "the state [Omega, xi, xi_dot, kappa]", state_sample),
+        Arg("p", M.PARAMS, "the constants [I1, I2, I3, alpha, beta, gamma, eta, delta]",
+            param_sample),
+        Arg("w", list(M.Om_d) + list(M.Om_dDot),
+            "the desired path at this time [Omega_d, Omega_d']", u(-2.0, 2.0)),
+    )
+
+
+def build_functions(opt):
+    fns = []
+    y_arg, p_arg, w_arg = args_common()
+    inputs = M.STATE + list(M.Om_d) + list(M.Om_dDot)
+
+    # ---- ODE right-hand side, physical time --------------------------------------------
+    prog = Program(inputs, M.PARAMS)
+    f, *_ = opt.rhs_program(prog)
+    fns.append(Function(
+        "ode_rhs",
+        "The optimality system dy/dt = f(y, Omega_d) in physical time: Omega' from Suslov's\n"
+        "equations (q = 0), xi'' by Sherman-Morrison, kappa' from the Euler-Lagrange\n"
+        "equation in Omega (paper eq. p_sys_explicit).",
+        prog, [y_arg, p_arg, w_arg], [Out("out", sp.Matrix(f), "array", "f(y), 12 entries")]))
+
+    # ---- scaled to s in [0, 1], t = a + s T -------------------------------------------
+    prog = Program(inputs, M.PARAMS + [T_SPAN, S_NORM])
+    f, *_ = opt.rhs_program(prog)
+    t_arg = Scalar(T_SPAN, "T = b - a, the length of the time interval", u(1.0, 12.0))
+    s_arg = Scalar(S_NORM, "normalized time s = (t - a)/T in [0, 1]", u(0.0, 1.0))
+    fns.append(Function(
+        "ode_rhs_scaled",
+        "The optimality system on normalized time: dy/ds = T f(y, Omega_d(a + s T)).",
+        prog, [y_arg, p_arg, w_arg, t_arg],
+        [Out("out", sp.Matrix([T_SPAN * e for e in f]), "array", "T f(y)")]))
+
+    prog = Program(inputs, M.PARAMS + [T_SPAN, S_NORM])
+    f, *_ = opt.rhs_program(prog)
+    J = prog.jacobian(f, M.STATE + list(M.Om_d))
+    Jy = J[:, :12] * T_SPAN
+    dT = sp.Matrix([f[i] + T_SPAN * S_NORM * sum(J[i, 12 + k] * M.Om_dDot[k] for k in range(3))
+                    for i in range(12)])
+    fns.append(Function(
+        "ode_jac_scaled",
+        "Jacobians of the scaled system g(s, y, T) = T f(y, Omega_d(a + s T)):\n"
+        "dg/dy = T df/dy and dg/dT = f + T s (df/dOmega_d) Omega_d'.",
+        prog, [y_arg, p_arg, w_arg, t_arg, s_arg],
+        [Out("dgdy", Jy, "matrix", "dg/dy, row-major [i][j] = d g_i / d y_j"),
+         Out("dgdt", dT, "array", "dg/dT")]))
+
+    # ---- boundary conditions -------------------------------------------------------------
+    ep_inputs = M.STATE + list(OMA)
+    end_arg = Arg("omega_end", list(OMA), "the prescribed Omega at this end", u(-2.0, 2.0))
+    prog = D.onshell_program(ep_inputs, M.PARAMS)
+    bc = list(M.Om - OMA) + list(D.natural_bc(opt))
+    fns.append(Function(
+        "bc_endpoint",
+        "Boundary conditions at either end (paper eqs. p_lbc, p_rbc): Omega = Omega_end and\n"
+        "the natural condition p_xi = dL/dxi' = <kappa, xi> Omega + beta xi' = 0 (xi is free).",
+        prog, [y_arg, p_arg, end_arg],
+        [Out("out", sp.Matrix(bc), "array", "the 6 residuals")]))
+    prog = D.onshell_program(ep_inputs, M.PARAMS)
+    Jbc = prog.jacobian(bc, M.STATE)
+    fns.append(Function(
+        "bc_endpoint_jac", "Jacobian of `bc_endpoint` with respect to the state y.",
+        prog, [y_arg, p_arg, end_arg],
+        [Out("d_y", Jbc, "matrix", "d residual_i / d y_j")]))
+
+    wb_arg = Arg("wb", list(M.Om_d) + list(M.Om_dDot),
+                 "the desired path at the terminal time [Omega_d(b), Omega_d'(b)]", u(-2.0, 2.0))
+    ftc = D.free_time_condition(opt)
+    prog = D.onshell_program(inputs, M.PARAMS)
+    fns.append(Function(
+        "free_time_condition",
+        "Transversality condition for a free terminal time (paper eq. p_rbc, third line):\n"
+        "C - <p_Omega, Omega'> at t = b, with p_Omega = dL/dOmega'. Vanishes at the optimum.",
+        prog, [y_arg, p_arg, wb_arg], [Out("value", ftc, "return", "the residual")]))
+    prog = D.onshell_program(inputs, M.PARAMS)
+    Jf = prog.jacobian([ftc], M.STATE + list(M.Om_d))
+    d_t = sum(Jf[0, 12 + k] * M.Om_dDot[k] for k in range(3))
+    fns.append(Function(
+        "free_time_condition_jac",
+        "Gradient of `free_time_condition` w.r.t. y(b), and its derivative w.r.t. T = b - a\n"
+        "through Omega_d(b) (returned).",
+        prog, [y_arg, p_arg, wb_arg],
+        [Out("d_y", sp.Matrix(Jf[0, :12]), "array", "d/dy(b)"),
+         Out("d_t", d_t, "return", "d/dT")]))
+
+    prog = D.onshell_program(inputs, M.PARAMS)
+    fns.append(Function(
+        "delta_start",
+        "The delta that makes the free-time condition hold at the current terminal state\n"
+        "(paper eq. delta_c_rbc): the start of the delta continuation stage.",
+        prog, [y_arg, p_arg, wb_arg],
+        [Out("value", -ftc.subs(M.delta, 0), "return", "delta_c")]))
+
+    prog = D.onshell_program(inputs, M.PARAMS)
+    fns.append(Function(
+        "cost_integrand", "The running cost C on a solution (Omega' = F(Omega, xi, xi')).",
+        prog, [y_arg, p_arg, w_arg], [Out("value", opt.C, "return", "C")]))
+
+    prog = D.onshell_program(inputs, M.PARAMS)
+    fns.append(Function(
+        "energy_function",
+        "E = <p_Omega, Omega'> + <p_xi, xi'> - L on a solution. Along solutions\n"
+        "dE/dt = -dC/dt|explicit = gamma <Omega - Omega_d, Omega_d'> (a check of the system).",
+        prog, [y_arg, p_arg, w_arg], [Out("value", D.energy_function(opt), "return", "E")]))
+
+    prog = D.onshell_program(inputs, M.PARAMS)
+    fns.append(Function(
+        "classical_costates",
+        "The costates pi of the classical 6-state Hamiltonian formulation,\n"
+        "pi = -[p_Omega; p_xi] (paper, after eq. red_Hamiltonian).",
+        prog, [y_arg, p_arg, w_arg],
+        [Out("out", D.classical_costates(opt), "array", "pi, 6 entries")]))
+
+    # ---- Suslov's pure equations ----------------------------------------------------------
+    x_syms = list(M.Om) + list(M.xi) + list(M.xiDot)
+    x_arg = Arg("x", x_syms, "[Omega, xi, xi']", state_sample)
+    prog = Program(x_syms, M.PARAMS)
+    om_dot = opt.suslov.let_omega_dot(prog)
+    fns.append(Function(
+        "suslov_omega_dot",
+        "Suslov's pure equations: Omega' = I^-1 [(I Omega) x Omega + lambda xi] with the\n"
+        "multiplier lambda (eqs. Suslov_eq_3D, Suslov_lambda), for a given control xi(t).",
+        prog, [x_arg, p_arg],
+        [Out("out", om_dot, "array", "Omega'"),
+         Out("lambda", sp.Symbol("lam", real=True), "return", "lambda")]))
+    q_syms = list(M.Om) + list(M.OmDot) + list(M.xi) + list(M.xiDot)
+    prog = Program(q_syms, M.PARAMS)
+    fns.append(Function(
+        "suslov_q",
+        "Suslov's residual q(Omega, Omega', xi, xi') (eq. Suslov_q); zero on solutions.",
+        prog, [Arg("x", q_syms, "[Omega, Omega', xi, xi']", u(-2.0, 2.0)), p_arg],
+        [Out("out", opt.suslov.q, "array", "q")]))
+
+    # ---- the analytic singular solution (section 5.1) ------------------------------------
+    sp_syms = list(M.Om) + list(M.OmDot) + list(M.OmDDot)
+    prog = Program(sp_syms, M.PARAMS)
+    xt = prog.let("xt", D.singular_xi())
+    nrm = prog.let("xtn", sp.sqrt(sum(e ** 2 for e in xt)))
+    xi_p = prog.let("xip", xt / nrm)
+    dxt = D.total_derivative(D.singular_xi())
+    dxt_s = prog.let("dxt", dxt)
+    xi_p_dot = (dxt_s - xi_p * sum(a * b for a, b in zip(xi_p, dxt_s))) / nrm
+    fns.append(Function(
+        "singular_control",
+        "The analytic singular solution's control (paper eq. xi_p_eq): xi_p = xi~/|xi~| with\n"
+        "xi~ = I Omega_p' - (I Omega_p) x Omega_p, and its derivative xi_p'. Requires\n"
+        "|xi~| > 0 (Property 3).",
+        prog, [Arg("omega_p", sp_syms, "[Omega_p, Omega_p', Omega_p'']", u(-2.0, 2.0)), p_arg],
+        [Out("out", sp.Matrix(list(xi_p) + list(xi_p_dot)), "array", "[xi_p, xi_p']")]))
+    return fns
+
+
+def sample(fns, n_points=4, seed=20261122):
+    rng = random.Random(seed)
+    for fn in fns:
+        outs = flat_outputs(fn)
+        run = fn.program.evaluator(outs)
+        fn.samples = []
+        for _ in range(n_points):
+            vals, inputs = {}, []
+            for a in fn.args:
+                if isinstance(a, Arg):
+                    v = [a.sample(rng, i) for i in range(len(a.symbols))]
+                    vals.update(zip(a.symbols, v))
+                    inputs.append(v)
+                else:
+                    v = a.sample(rng, 0)
+                    vals[a.symbol] = v
+                    inputs.append(v)
+            for c in fn.program.constants:
+                vals.setdefault(c, 0.0)  # constants not exposed as args (unused)
+            # inputs not exposed as args of this function
+            for s in fn.program.inputs:
+                vals.setdefault(s, 0.0)
+            fn.samples.append((inputs, [float(v) for v in run(vals)]))
+
+
+def formulas_text(opt, fns):
+    s = opt.suslov
+    lines = ["# Derived formulas (codegen/derive.py); reviewed through an insta snapshot.", ""]
+    lines.append(f"den = <xi, I^-1 xi> = {sp.sstr(s.den)}")
+    lines.append(f"lambda * den = {sp.sstr(s.lam_num)}")
+    for i, e in enumerate(s.q):
+        lines.append(f"q[{i}] = {sp.sstr(e)}")
+    lines.append(f"m (coefficient of xi'' in EL_xi) = {sp.sstr(opt.m)}")
+    lines.append(f"u (d/dt q = M11 Om'' + u <v, xi''> + ...) = {sp.sstr(list(opt.u))}")
+    lines.append(f"v = dphi/dxi = {sp.sstr(list(opt.v))}")
+    lines.append(f"p_Om = dL/dOm' = {sp.sstr(list(opt.p_om))}")
+    lines.append(f"p_xi = dL/dxi' = {sp.sstr(list(opt.p_xi))}")
+    lines.append(f"free-time condition = {sp.sstr(D.free_time_condition(opt))}")
+    lines.append("")
+    rhs = next(f for f in fns if f.name == "ode_rhs")
+    lines.append("# ode_rhs, assignment by assignment")
+    for sym, e in rhs.program.lets:
+        lines.append(f"{sym} = {sp.sstr(e)}")
+    lines.append("")
+    lines.append("# generated functions")
+    for fn in fns:
+        lines.append(f"{fn.name}: {len(fn.program.lets)} assignments, "
+                     f"{len(flat_outputs(fn))} outputs")
+    return "\n".join(lines) + "\n"
+
+
+HEADER = """\
+// @generated by codegen/generate.py from codegen/model.py. DO NOT EDIT.
+// Regenerate: edit codegen/model.py and run `cargo build` (see codegen/README.md).
+// sympy {version}; codegen sources sha256 {hash}
+"""
+
+
+def module_text(fns, h):
+    y = ", ".join(f'"{n}"' for n in M.STATE_NAMES)
+    pn = ", ".join(f'"{p}"' for p in M.PARAMS)
+    pd = ",\n    ".join(f'"{d}"' for d in M.PARAM_DOCS)
+    parts = [HEADER.format(version=sp.__version__, hash=h),
+             f'/// The sympy version that derived these formulas.\n'
+             f'pub const SYMPY_VERSION: &str = "{sp.__version__}";',
+             f'/// sha256 of the codegen sources these formulas came from.\n'
+             f'pub const SOURCE_HASH: &str = "{h}";',
+             "/// Number of states y = [Omega, xi, xi', kappa].\npub const N_STATE: usize = 12;",
+             f"/// Names of the states, in order.\npub const STATE_NAMES: [&str; 12] = [{y}];",
+             f"/// Number of constants p.\npub const N_PARAM: usize = {len(M.PARAMS)};",
+             f"/// Names of the constants p, in order.\n"
+             f"pub const PARAM_NAMES: [&str; {len(M.PARAMS)}] = [{pn}];",
+             f"/// What each constant means.\n"
+             f"pub const PARAM_DOCS: [&str; {len(M.PARAMS)}] = [\n    {pd},\n];",
+             "/// Number of desired-path inputs w = [Omega_d, Omega_d'].\n"
+             "pub const N_DESIRED: usize = 6;",
+             "/// Number of boundary conditions at each end (without the free-time condition).\n"
+             "pub const N_BC_ENDPOINT: usize = 6;"]
+    for fn in fns:
+        parts.append(emit_function(fn))
+    return "\n\n".join(parts) + "\n"
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--out", required=True, help="output directory")
+    args = ap.parse_args()
+    os.makedirs(args.out, exist_ok=True)
+    h = source_hash()
+    opt = D.Optimality()
+    fns = build_functions(opt)
+    sample(fns)
+    files = {
+        "suslov_model.rs": module_text(fns, h),
+        "suslov_vectors.rs": HEADER.format(version=sp.__version__, hash=h) + "\n"
+        + emit_vector_checks(fns) + "\n",
+        "formulas.txt": formulas_text(opt, fns),
+    }
+    for name, text in files.items():
+        path = os.path.join(args.out, name)
+        tmp = path + ".tmp"
+        with open(tmp, "w") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+
+
+if __name__ == "__main__":
+    main()

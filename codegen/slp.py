@@ -1,0 +1,136 @@
+"""Straight-line programs: the derivation's intermediate representation.
+
+A `Program` is an ordered list of assignments `v_k = e_k(inputs, constants, v_<k)`. The
+derivation builds one program per emitted function, naming its intermediate quantities
+(Omega_dot, the eliminated blocks, the Sherman-Morrison scalar, ...) instead of substituting
+them into one enormous expression. Jacobians are then taken in forward mode *through* the
+program (chain rule over the assignments), so every expression stays small, generation is fast
+and the generated code keeps the structure of the derivation.
+
+Nothing here knows about Suslov.
+"""
+
+import mpmath
+import sympy as sp
+
+
+class Program:
+    """Ordered assignments over a fixed set of inputs."""
+
+    def __init__(self, inputs, constants=()):
+        self.inputs = list(inputs)
+        self.constants = list(constants)
+        self.lets = []  # [(Symbol, Expr)]
+        self._defined = {}
+        known = set(self.inputs) | set(self.constants)
+        if len(known) != len(self.inputs) + len(self.constants):
+            raise ValueError("inputs and constants must be distinct symbols")
+        self._known = known
+
+    # -- building --------------------------------------------------------------------------
+    def let(self, target, expr):
+        """Assign `expr` to `target` (a Symbol, a name, or a Matrix of Symbols/names).
+
+        Returns the assigned symbol(s), to be used in later expressions.
+        """
+        if isinstance(expr, sp.MatrixBase):
+            if isinstance(target, str):
+                names = [f"{target}{i + 1}" for i in range(len(expr))]
+            else:
+                names = list(target)
+            if len(names) != len(expr):
+                raise ValueError("target and expression sizes differ")
+            syms = [self.let(n, e) for n, e in zip(names, expr)]
+            return sp.Matrix(expr.rows, expr.cols, syms)
+        sym = sp.Symbol(target, real=True) if isinstance(target, str) else target
+        if sym in self._defined or sym in self._known:
+            raise ValueError(f"{sym} assigned twice")
+        expr = sp.sympify(expr)
+        unknown = expr.free_symbols - self._known - set(self._defined)
+        if unknown:
+            raise ValueError(f"{sym} uses undefined symbols {sorted(map(str, unknown))}")
+        self.lets.append((sym, expr))
+        self._defined[sym] = expr
+        return sym
+
+    def copy(self):
+        p = Program(self.inputs, self.constants)
+        p.lets = list(self.lets)
+        p._defined = dict(self._defined)
+        return p
+
+    # -- analysis --------------------------------------------------------------------------
+    def inline(self, expr):
+        """`expr` with every assigned symbol replaced by its definition (for tests)."""
+        expr = sp.sympify(expr)
+        for sym, e in reversed(self.lets):
+            if sym in expr.free_symbols:
+                expr = expr.xreplace({sym: e})
+        return expr
+
+    def jacobian(self, outputs, wrt, prefix="d"):
+        """Forward-mode Jacobian of `outputs` (list of exprs) w.r.t. `wrt` (input symbols).
+
+        New assignments for the derivatives of intermediate quantities are appended to this
+        program; the result is a Matrix (len(outputs) x len(wrt)) of expressions in the
+        program's symbols. Derivatives that are structurally zero are not materialised.
+        """
+        wrt = list(wrt)
+        for w in wrt:
+            if w not in self._known:
+                raise ValueError(f"can only differentiate w.r.t. inputs/constants, not {w}")
+        # tangent[sym][j] = d sym / d wrt_j (an atom or a new symbol); absent = 0
+        tangent = {w: {j: sp.Integer(1)} for j, w in enumerate(wrt)}
+        base = list(self.lets)
+        for sym, e in base:
+            deps = [s for s in e.free_symbols if s in tangent]
+            if not deps:
+                continue
+            partial = {s: sp.diff(e, s) for s in sorted(deps, key=sp.default_sort_key)}
+            cols = sorted({j for s in deps for j in tangent[s]})
+            tan = {}
+            for j in cols:
+                d = sp.Add(*[partial[s] * tangent[s][j] for s in partial if j in tangent[s]])
+                if d == 0:
+                    continue
+                if d.is_Atom:
+                    tan[j] = d
+                else:
+                    tan[j] = self.let(f"{prefix}_{sym}__{wrt[j]}", d)
+            if tan:
+                tangent[sym] = tan
+        jac = sp.zeros(len(outputs), len(wrt))
+        for i, out in enumerate(outputs):
+            out = sp.sympify(out)
+            deps = [s for s in out.free_symbols if s in tangent]
+            for s in deps:
+                ds = sp.diff(out, s)
+                for j, t in tangent[s].items():
+                    jac[i, j] += ds * t
+        return jac
+
+    # -- numerics --------------------------------------------------------------------------
+    def evaluator(self, outputs, dps=40):
+        """Compile an mpmath evaluator of `outputs`: call it with a dict {symbol: value}."""
+        compiled = []
+        for sym, e in self.lets:
+            syms = sorted(e.free_symbols, key=sp.default_sort_key)
+            compiled.append((sym, syms, sp.lambdify(syms, e, modules="mpmath")))
+        outs = []
+        for o in outputs:
+            o = sp.sympify(o)
+            syms = sorted(o.free_symbols, key=sp.default_sort_key)
+            outs.append((syms, sp.lambdify(syms, o, modules="mpmath")))
+        needed = set(self.inputs) | set(self.constants)
+
+        def run(values):
+            missing = needed - set(values)
+            if missing:
+                raise ValueError(f"missing values for {sorted(map(str, missing))}")
+            with mpmath.workdps(dps):
+                env = {s: mpmath.mpf(v) for s, v in values.items()}
+                for sym, syms, f in compiled:
+                    env[sym] = mpmath.mpf(f(*[env[s] for s in syms]))
+                return [mpmath.mpf(f(*[env[s] for s in syms])) for syms, f in outs]
+
+        return run
