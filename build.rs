@@ -38,7 +38,10 @@ fn main() {
         .output();
     let fallback_reason = match run {
         Ok(o) if o.status.success() => {
-            if !FILES.iter().all(|f| same_file(&out.join(f), &committed.join(f))) {
+            if !FILES
+                .iter()
+                .all(|f| same_file(&out.join(f), &committed.join(f)))
+            {
                 println!(
                     "cargo:warning=the generated model differs from the committed copy in \
                      codegen/generated/: review it (cargo insta review) and refresh the copy \
@@ -97,7 +100,11 @@ fn codegen_sources(dir: &Path) -> Vec<PathBuf> {
 fn source_hash(dir: &Path) -> String {
     let mut h = Sha256::new();
     for p in codegen_sources(dir) {
-        let name = p.file_name().expect("file name").to_string_lossy().into_owned();
+        let name = p
+            .file_name()
+            .expect("file name")
+            .to_string_lossy()
+            .into_owned();
         h.update(name.as_bytes());
         h.update([0u8]);
         h.update(fs::read(&p).expect("read codegen source"));
@@ -107,7 +114,9 @@ fn source_hash(dir: &Path) -> String {
 }
 
 fn recorded_hash(text: &str) -> Option<String> {
-    let line = text.lines().find(|l| l.contains("codegen sources sha256"))?;
+    let line = text
+        .lines()
+        .find(|l| l.contains("codegen sources sha256"))?;
     Some(line.rsplit(' ').next()?.trim().to_string())
 }
 

@@ -14,7 +14,12 @@ mod vectors {
 #[test]
 fn generated_functions_match_sympy_evaluation() {
     let failures = vectors::check_vectors(1e-12);
-    assert!(failures.is_empty(), "{} mismatches:\n{}", failures.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} mismatches:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
 }
 
 #[test]
