@@ -125,7 +125,7 @@ def build_functions(opt):
         "Jacobians of the scaled system g(s, y, T) = T f(y, Omega_d(a + s T)):\n"
         "dg/dy = T df/dy and dg/dT = f + T s (df/dOmega_d) Omega_d'.",
         prog, [y_arg, p_arg, w_arg, t_arg, s_arg],
-        [Out("dgdy", Jy, "matrix", "dg/dy, row-major [i][j] = d g_i / d y_j"),
+        [Out("dgdy", Jy, "matrix", "dg/dy, row-major: `dgdy[i][j]` = d g_i / d y_j"),
          Out("dgdt", dT, "array", "dg/dT")]))
 
     # ---- boundary conditions -------------------------------------------------------------

@@ -16,7 +16,8 @@ const TOL: f64 = 1e-6;
 fn mismatches(analytic: &[f64], fd: &[f64], what: &str, out: &mut Vec<String>) {
     let scale = fd.iter().fold(0.0f64, |m, v| m.max(v.abs())).max(1e-8);
     for (j, (a, f)) in analytic.iter().zip(fd).enumerate() {
-        if !((a - f).abs() <= TOL * (f.abs() + 1e-3 * scale)) {
+        let ok = (a - f).abs() <= TOL * (f.abs() + 1e-3 * scale); // false for NaN too
+        if !ok {
             out.push(format!(
                 "{what} [{j}]: analytic {a:e}, finite difference {f:e}"
             ));
