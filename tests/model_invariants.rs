@@ -257,6 +257,19 @@ fn classical_costates_make_the_control_gradient_vanish() {
                 jac[i][j] = col[i];
             }
         }
+        // dOmega'/dxi' = -I^-1 xi Omega^T / <xi, I^-1 xi>. (The paper prints it with a plus
+        // sign, after eq. red_Hamiltonian: a typo without consequence there, since only
+        // H_uu, quadratic in it, is used; with the plus sign H_u would not vanish.)
+        let den: f64 = (0..3).map(|i| y[3 + i] * y[3 + i] / p[i]).sum();
+        for i in 0..3 {
+            for j in 0..3 {
+                let exact = -y[3 + i] / p[i] * y[j] / den;
+                assert!(
+                    close(jac[i][j], exact, 1e-8, 1.0),
+                    "dOmega'/dxi' [{i}][{j}]"
+                );
+            }
+        }
         for j in 0..3 {
             let hu = (0..3)
                 .map(|i| (p[6] * f[i] + pi[i]) * jac[i][j])
