@@ -121,6 +121,9 @@ use mesh::{adapt_mesh, estimate_errors, halve_mesh, transfer_solution, ErrorEsti
 use newton::{solve_newton, NewtonOutcome};
 use problem::Evaluator;
 
+/// A Jacobian with `cond_1 * eps` above this is numerically singular.
+const NUMERICALLY_SINGULAR: f64 = 1e-3;
+
 /// Consecutive Newton failures (each followed by mesh halving) before giving up.
 const MAX_NEWTON_FAILURES: usize = 4;
 
@@ -272,10 +275,16 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             _ => {}
         }
         let newton_ok = outcome == NewtonOutcome::Converged;
+        stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), n + k);
+        stats.condition_estimate = sys.condition_estimate(n, k, x.len());
+        let well_posed = stats.bc_condition * options.tol <= options.conditioning_limit
+            && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR;
         let accurate = newton_ok && est.max_error <= 1.0 && est.max_defect <= 1.0;
         let mut next_x = None;
         let mut status = None;
-        if accurate && est.bc_residual <= options.bc_tol() {
+        if accurate && !well_posed {
+            status = Some(Status::SingularJacobian);
+        } else if accurate && est.bc_residual <= options.bc_tol() {
             status = Some(Status::Converged);
         } else if accurate && !bc_retry_done {
             bc_retry_done = true;

@@ -11,10 +11,10 @@
 //! else    lambda <- min(lambda/2, mu),  mu = ||dx|| lambda^2 / (2 ||dxb - (1-lambda) dx||)
 //! ```
 //!
-//! Norms are scaled max-norms, `max_j |d_j| / (atol s_j + tol |u_j|)`, so that `1` is the
-//! tolerance level; Newton stops when a full step leaves `||dxb|| <= newton_tol` (then `dxb`
-//! is added as well) or a fresh correction satisfies `||dx|| <= newton_tol` (then `dx` is
-//! added). At least one correction is always applied: a warm start never takes zero steps.
+//! Norms are scaled by `atol s_j + tol |u_j|`, so that `1` is the tolerance level: the RMS
+//! norm in the damping strategy, the max-norm in the stopping test. Newton stops when a full
+//! step leaves `max |dxb| <= newton_tol` (then `dxb` is added as well) or a fresh correction
+//! satisfies `max |dx| <= newton_tol` (then `dx` is added). At least one correction is always applied: a warm start never takes zero steps.
 //!
 //! Jacobian reuse: after an undamped step with contraction `theta = ||dxb|| / ||dx||` below
 //! `reuse_jacobian_below`, the next step is the simplified one, `dx := dxb` (already
@@ -44,10 +44,13 @@ pub(crate) enum NewtonOutcome {
     NonFinite,
 }
 
-/// Scaled max-norm of a correction `d` at the iterate `u`.
-pub(crate) fn scaled_norm(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol: f64, tol: f64) -> f64 {
+/// Scaled norms of a correction `d` at the iterate `u`: `(rms, max)` of
+/// `|d_j| / (atol s_j + tol |u_j|)`. The RMS norm drives damping (smooth, as in NLEQ-ERR), the
+/// max-norm decides convergence (no component may be left behind). NaN maps to infinity.
+pub(crate) fn scaled_norms(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol: f64, tol: f64) -> (f64, f64) {
     let (n, po, so) = (lay.n, lay.p_offset(), lay.stage_offset());
     let mut worst = 0.0_f64;
+    let mut sum = 0.0;
     for (idx, (dv, uv)) in d.iter().zip(u).enumerate() {
         let a = if idx < po {
             absw[idx % n]
@@ -56,12 +59,15 @@ pub(crate) fn scaled_norm(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol:
         } else {
             absw[(idx - so) % n]
         };
-        worst = worst.max(dv.abs() / (a + tol * uv.abs()));
+        let v = dv.abs() / (a + tol * uv.abs());
+        worst = worst.max(v);
+        sum += v * v;
     }
-    if worst.is_nan() {
-        f64::INFINITY
+    let rms = (sum / d.len().max(1) as f64).sqrt();
+    if worst.is_nan() || rms.is_nan() {
+        (f64::INFINITY, f64::INFINITY)
     } else {
-        worst
+        (rms, worst)
     }
 }
 
@@ -134,15 +140,15 @@ pub(crate) fn solve_newton<P: BvpProblem + ?Sized>(
             }
         }
         dx_ready = false;
-        let ndx = scaled_norm(lay, &dx, u, &absw, atol, tol);
+        let (ndx, ndx_max) = scaled_norms(lay, &dx, u, &absw, atol, tol);
         if !ndx.is_finite() {
             return NewtonOutcome::Singular;
         }
-        if fresh && ndx <= ntol {
+        if fresh && ndx_max <= ntol {
             for (a, d) in u.iter_mut().zip(&dx) {
                 *a += d;
             }
-            report(progress, pass, lay.m, iter, ndx, 1.0, fresh);
+            report(progress, pass, lay.m, iter, ndx_max, 1.0, fresh);
             return NewtonOutcome::Converged;
         }
         let mut lambda = if fresh { lambda_next } else { 1.0 };
@@ -152,13 +158,14 @@ pub(crate) fn solve_newton<P: BvpProblem + ?Sized>(
             }
             let ok = col.evaluate_residual(ev, &u_trial, &mut res_trial)
                 && compute_correction(col, sys, &res_trial, &mut dxb);
-            let ndxb = if ok { scaled_norm(lay, &dxb, &u_trial, &absw, atol, tol) } else { f64::INFINITY };
+            let (ndxb, ndxb_max) =
+                if ok { scaled_norms(lay, &dxb, &u_trial, &absw, atol, tol) } else { (f64::INFINITY, f64::INFINITY) };
             if ndxb <= (1.0 - 0.25 * lambda) * ndx {
                 // Accept.
                 u.copy_from_slice(&u_trial);
                 res.copy_from_slice(&res_trial);
-                report(progress, pass, lay.m, iter, ndx, lambda, fresh);
-                if lambda == 1.0 && ndxb <= ntol {
+                report(progress, pass, lay.m, iter, ndx_max, lambda, fresh);
+                if lambda == 1.0 && ndxb_max <= ntol {
                     for (a, d) in u.iter_mut().zip(&dxb) {
                         *a += d;
                     }
@@ -182,7 +189,7 @@ pub(crate) fn solve_newton<P: BvpProblem + ?Sized>(
                 for ((df, b), d) in diff.iter_mut().zip(&dxb).zip(&dx) {
                     *df = b - (1.0 - lambda) * d;
                 }
-                let dev = scaled_norm(lay, &diff, &u_trial, &absw, atol, tol);
+                let (dev, _) = scaled_norms(lay, &diff, &u_trial, &absw, atol, tol);
                 if dev > 0.0 && dev.is_finite() {
                     lambda_new = lambda_new.min(0.5 * ndx * lambda * lambda / dev);
                 }

@@ -72,6 +72,14 @@ pub struct Options {
     /// Keep the Jacobian for the next iteration when the contraction rate `theta` of a full
     /// step is below this (simplified Newton) (default: 0.25). Set 0 to refactor every step.
     pub reuse_jacobian_below: f64,
+    /// Ill-posedness guard (default: 100): a candidate solution is rejected with
+    /// [`SingularJacobian`](super::Status::SingularJacobian) if `kappa * tol` exceeds this, where
+    /// `kappa = max_r ||J^{-1} e_r||_inf` is the response of the discrete solution to a unit
+    /// change of one boundary condition ([`Stats::bc_condition`](super::Stats::bc_condition)).
+    /// A BVP without solution (e.g. `y'' + y = 0`, `y(0) = 0`, `y(pi) = 1`) has a discrete
+    /// "solution" whose size grows like the inverse discretisation error; this catches it.
+    /// The measure depends on the scaling of `g`; set `f64::INFINITY` to disable.
+    pub conditioning_limit: f64,
     /// Adapt the mesh (default: true). With `false` the system is solved on the given mesh
     /// only; the status is [`Converged`](super::Status::Converged) if the error estimate meets the
     /// tolerance and [`ToleranceNotMet`](super::Status::ToleranceNotMet) otherwise.
@@ -95,6 +103,7 @@ impl Default for Options {
             newton_tol: 1e-2,
             min_damping: 1e-4,
             reuse_jacobian_below: 0.25,
+            conditioning_limit: 100.0,
             adapt_mesh: true,
             scale: None,
             jacobian: JacobianSource::Analytic,
@@ -126,6 +135,13 @@ impl Options {
         positive("atol", self.atol())?;
         positive("bc_tol", self.bc_tol())?;
         positive("newton_tol", self.newton_tol)?;
+        if !(self.conditioning_limit > 0.0) {
+            return Err(BvpError::InvalidOption {
+                name: "conditioning_limit",
+                value: self.conditioning_limit,
+                expected: "a number > 0 (infinity disables the check)",
+            });
+        }
         if !(self.min_damping > 0.0 && self.min_damping <= 1.0) {
             return Err(BvpError::InvalidOption {
                 name: "min_damping",

@@ -19,7 +19,10 @@ pub enum Status {
     MaxNodes,
     /// `max_mesh_passes` mesh passes did not reach the tolerance.
     MaxMeshPasses,
-    /// The Newton matrix (a stage block or the global system) is singular.
+    /// The Newton matrix (a stage block or the global system) is singular, or so
+    /// ill-conditioned that the solution is not determined to the tolerance
+    /// (`stats.bc_condition * tol > conditioning_limit`, or
+    /// `stats.condition_estimate * eps > 1e-3`).
     SingularJacobian,
     /// Damped Newton failed repeatedly (even after mesh halving).
     NoConvergence,
@@ -100,6 +103,12 @@ pub struct Stats {
     pub max_residual: f64,
     /// `max |g(y(a), y(b), p)|` at the returned solution.
     pub bc_residual: f64,
+    /// Sensitivity of the discrete solution to the boundary data on the last mesh:
+    /// `max_r ||J^{-1} e_r||_inf` over boundary rows `r` (see `Options::conditioning_limit`).
+    pub bc_condition: f64,
+    /// Estimate of the 1-norm condition number of the condensed global Newton matrix on the
+    /// last mesh (Hager-Higham). Above `1e-3 / eps` the matrix counts as numerically singular.
+    pub condition_estimate: f64,
 }
 
 /// One report to the progress hook.
