@@ -1,8 +1,8 @@
 //! Invariants and identities that the generated system must satisfy, at random points.
 //! None of them is used to derive the system, so each is an independent check of it.
 
-mod common;
-use common::{close, derivative, Path, Rng};
+mod modelkit;
+use modelkit::{close, derivative, Path, Rng};
 use suslov::model::generated as g;
 
 fn dot(a: &[f64], b: &[f64]) -> f64 {
@@ -16,8 +16,8 @@ fn constraint_rate_vanishes_and_energy_is_conserved() {
     let mut rng = Rng::new(1);
     for k in 0..200 {
         let admissible = k % 2 == 0;
-        let y = common::random_state(&mut rng, admissible);
-        let p = common::random_params(&mut rng);
+        let y = modelkit::random_state(&mut rng, admissible);
+        let p = modelkit::random_params(&mut rng);
         let w = Path::random(&mut rng).w(rng.uniform(0.0, 10.0));
         let mut f = [0.0; 12];
         g::ode_rhs(&y, &p, &w, &mut f);
@@ -49,8 +49,8 @@ fn energy_function_obeys_noethers_balance_along_the_flow() {
     let mut rng = Rng::new(2);
     let mut worst = 0.0f64;
     for k in 0..150 {
-        let y = common::random_state(&mut rng, k % 3 != 0);
-        let p = common::random_params(&mut rng);
+        let y = modelkit::random_state(&mut rng, k % 3 != 0);
+        let p = modelkit::random_params(&mut rng);
         let path = Path::random(&mut rng);
         let t = rng.uniform(0.0, 10.0);
         let w = path.w(t);
@@ -82,8 +82,8 @@ fn the_balance_check_detects_a_wrong_kappa_equation() {
     let mut rng = Rng::new(3);
     let mut caught = 0;
     for _ in 0..30 {
-        let y = common::random_state(&mut rng, true);
-        let mut p = common::random_params(&mut rng);
+        let y = modelkit::random_state(&mut rng, true);
+        let mut p = modelkit::random_params(&mut rng);
         p[6] = rng.uniform(0.5, 2.0); // eta > 0 so kappa' enters E's rate
         let path = Path::random(&mut rng);
         let w = path.w(1.0);
@@ -143,7 +143,7 @@ fn analytic_singular_solution_solves_suslov_and_the_costate_equation() {
     // the xi equation gives xi'' = 0 for any beta (the singular limit beta -> 0 is consistent).
     let mut rng = Rng::new(4);
     for k in 0..100 {
-        let mut p = common::random_params(&mut rng);
+        let mut p = modelkit::random_params(&mut rng);
         p[6] = 0.0; // eta
         let c = [
             rng.uniform(0.5, 3.0),
@@ -211,8 +211,8 @@ fn analytic_singular_solution_solves_suslov_and_the_costate_equation() {
 fn delta_start_zeroes_the_free_time_condition() {
     let mut rng = Rng::new(5);
     for _ in 0..100 {
-        let y = common::random_state(&mut rng, true);
-        let mut p = common::random_params(&mut rng);
+        let y = modelkit::random_state(&mut rng, true);
+        let mut p = modelkit::random_params(&mut rng);
         let wb = Path::random(&mut rng).w(3.0);
         let d = g::delta_start(&y, &p, &wb);
         p[7] = d;
@@ -231,8 +231,8 @@ fn classical_costates_make_the_control_gradient_vanish() {
     // dOmega'/dxi' is taken by finite differences of Suslov's pure equations.
     let mut rng = Rng::new(6);
     for k in 0..100 {
-        let y = common::random_state(&mut rng, true);
-        let p = common::random_params(&mut rng);
+        let y = modelkit::random_state(&mut rng, true);
+        let p = modelkit::random_params(&mut rng);
         let w = Path::random(&mut rng).w(0.5);
         let mut pi = [0.0; 6];
         g::classical_costates(&y, &p, &w, &mut pi);

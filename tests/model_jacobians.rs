@@ -2,8 +2,8 @@
 //! differentiates, at seeded random points (>= 100 each), including the T column (which
 //! goes through Omega_d(a + s T)) and the free-time condition's dependence on T.
 
-mod common;
-use common::{derivative, Path, Rng};
+mod modelkit;
+use modelkit::{derivative, Path, Rng};
 use suslov::model::generated as g;
 
 const POINTS: usize = 120;
@@ -32,8 +32,8 @@ fn step(x: f64) -> f64 {
 /// All Jacobian checks at one point; returns the list of failing entries.
 fn check_point(rng: &mut Rng, perturb: Option<(usize, usize, f64)>) -> Vec<String> {
     let admissible = rng.next_u64() % 2 == 0;
-    let y = common::random_state(rng, admissible);
-    let p = common::random_params(rng);
+    let y = modelkit::random_state(rng, admissible);
+    let p = modelkit::random_params(rng);
     let path = Path::random(rng);
     let t_span = rng.uniform(1.0, 12.0);
     let s = rng.uniform(0.0, 1.0);

@@ -1,120 +1,277 @@
-//! Shared helpers for the model tests: a seeded RNG, random admissible points, a smooth
-//! synthetic desired path with exact derivatives, and Richardson-extrapolated differences.
+//! Test problems with exact solutions, shared by the `bvp_*` integration tests.
+//! Each problem implements `BvpProblem` with analytic Jacobians and has an `exact(x)`.
 #![allow(dead_code)]
 
-/// SplitMix64: a tiny deterministic generator (no dependency, same numbers everywhere).
-pub struct Rng(u64);
+use std::f64::consts::PI;
+use suslov::bvp::{solve, BvpProblem, Guess, Options, Solution};
 
-impl Rng {
-    pub fn new(seed: u64) -> Self {
-        Rng(seed)
+/// A problem with a known solution (states only; parameters in `exact_p`).
+pub trait Exact: BvpProblem {
+    fn exact(&self, x: f64) -> Vec<f64>;
+    fn exact_p(&self) -> Vec<f64> {
+        vec![]
     }
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
+    fn interval(&self) -> (f64, f64) {
+        (0.0, 1.0)
     }
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
+}
+
+/// Linear, non-autonomous: y'' = pi^2 (y - x^2) - 2 pi^2 sin(pi x) + 2, y(0) = 0, y(1) = 1;
+/// y = sin(pi x) + x^2.
+pub struct Linear;
+impl BvpProblem for Linear {
+    fn n(&self) -> usize {
+        2
     }
-    pub fn sign(&mut self) -> f64 {
-        if self.next_u64() & 1 == 0 {
-            1.0
-        } else {
-            -1.0
+    fn f(&self, x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = PI * PI * (y[0] - x * x) - 2.0 * PI * PI * (PI * x).sin() + 2.0;
+    }
+    fn jac(&self, _x: f64, _y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, PI * PI, 0.0]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0];
+        r[1] = yb[0] - 1.0;
+    }
+    fn bc_jac(&self, _ya: &[f64], _yb: &[f64], _p: &[f64], dya: &mut [f64], dyb: &mut [f64], _dp: &mut [f64]) -> bool {
+        dya.copy_from_slice(&[1.0, 0.0, 0.0, 0.0]);
+        dyb.copy_from_slice(&[0.0, 0.0, 1.0, 0.0]);
+        true
+    }
+}
+impl Exact for Linear {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        vec![(PI * x).sin() + x * x, PI * (PI * x).cos() + 2.0 * x]
+    }
+}
+
+/// Nonlinear: y'' = 1.5 y^2, y(0) = 4, y(1) = 1; y = 4 / (1 + x)^2.
+pub struct Quadratic;
+impl BvpProblem for Quadratic {
+    fn n(&self) -> usize {
+        2
+    }
+    fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = 1.5 * y[0] * y[0];
+    }
+    fn jac(&self, _x: f64, y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, 3.0 * y[0], 0.0]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0] - 4.0;
+        r[1] = yb[0] - 1.0;
+    }
+}
+impl Exact for Quadratic {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        vec![4.0 / (1.0 + x).powi(2), -8.0 / (1.0 + x).powi(3)]
+    }
+}
+
+/// Sturm-Liouville eigenvalue (scipy's example): y'' + p^2 y = 0, y(0) = y(1) = 0,
+/// y'(0) = p; first eigenpair p = pi, y = sin(pi x).
+pub struct SturmLiouville;
+impl BvpProblem for SturmLiouville {
+    fn n(&self) -> usize {
+        2
+    }
+    fn k(&self) -> usize {
+        1
+    }
+    fn f(&self, _x: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -p[0] * p[0] * y[0];
+    }
+    fn jac(&self, _x: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, -p[0] * p[0], 0.0]);
+        dfdp.copy_from_slice(&[0.0, -2.0 * p[0] * y[0]]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0];
+        r[1] = yb[0];
+        r[2] = ya[1] - p[0];
+    }
+    fn bc_jac(&self, _ya: &[f64], _yb: &[f64], _p: &[f64], dya: &mut [f64], dyb: &mut [f64], dp: &mut [f64]) -> bool {
+        dya.copy_from_slice(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
+        dyb.copy_from_slice(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
+        dp.copy_from_slice(&[0.0, 0.0, -1.0]);
+        true
+    }
+}
+impl Exact for SturmLiouville {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        vec![(PI * x).sin(), PI * (PI * x).cos()]
+    }
+    fn exact_p(&self) -> Vec<f64> {
+        vec![PI]
+    }
+}
+
+/// Boundary layer at x = 0: eps y'' + y' = 0, y(0) = 0, y(1) = 1;
+/// y = (1 - exp(-x/eps)) / (1 - exp(-1/eps)).
+pub struct BoundaryLayer {
+    pub eps: f64,
+}
+impl BvpProblem for BoundaryLayer {
+    fn n(&self) -> usize {
+        2
+    }
+    fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -y[1] / self.eps;
+    }
+    fn jac(&self, _x: f64, _y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, 0.0, -1.0 / self.eps]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0];
+        r[1] = yb[0] - 1.0;
+    }
+}
+impl Exact for BoundaryLayer {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        let e = self.eps;
+        let d = -(-1.0 / e).exp_m1();
+        vec![-(-x / e).exp_m1() / d, (-x / e).exp() / (e * d)]
+    }
+}
+
+/// Bratu: y'' + lambda exp(y) = 0, y(0) = y(1) = 0. Exact: y = -2 ln(cosh((x - 1/2) theta/2) /
+/// cosh(theta/4)) with theta = sqrt(2 lambda) cosh(theta/4) (two roots for lambda < 3.51).
+pub struct Bratu {
+    pub lambda: f64,
+    pub theta: f64,
+}
+impl Bratu {
+    /// The root of `theta = sqrt(2 lambda) cosh(theta/4)` reached by Newton from `theta0`.
+    pub fn new(lambda: f64, theta0: f64) -> Self {
+        let s = (2.0 * lambda).sqrt();
+        let mut t = theta0;
+        for _ in 0..100 {
+            let g = t - s * (t / 4.0).cosh();
+            let dg = 1.0 - s * (t / 4.0).sinh() / 4.0;
+            t -= g / dg;
+        }
+        Self { lambda, theta: t }
+    }
+}
+impl BvpProblem for Bratu {
+    fn n(&self) -> usize {
+        2
+    }
+    fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        dy[0] = y[1];
+        dy[1] = -self.lambda * y[0].exp();
+    }
+    fn jac(&self, _x: f64, y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, -self.lambda * y[0].exp(), 0.0]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0];
+        r[1] = yb[0];
+    }
+}
+impl Exact for Bratu {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        let t = self.theta;
+        let s = (x - 0.5) * t / 2.0;
+        vec![-2.0 * (s.cosh() / (t / 4.0).cosh()).ln(), -t * s.tanh()]
+    }
+}
+
+/// Interior layer, manufactured: y'' = y^3 + (Y'' - Y^3), Y = tanh((x - 1/2)/w), with
+/// y(0) = Y(0), y(1) = Y(1). Exact solution Y (width w, e.g. 0.01).
+pub struct InteriorLayer {
+    pub w: f64,
+}
+impl InteriorLayer {
+    fn profile(&self, x: f64) -> (f64, f64, f64) {
+        let u = ((x - 0.5) / self.w).tanh();
+        let du = (1.0 - u * u) / self.w;
+        let d2u = -2.0 * u * du / self.w;
+        (u, du, d2u)
+    }
+}
+impl BvpProblem for InteriorLayer {
+    fn n(&self) -> usize {
+        2
+    }
+    fn f(&self, x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        let (u, _, d2u) = self.profile(x);
+        dy[0] = y[1];
+        dy[1] = y[0].powi(3) + d2u - u.powi(3);
+    }
+    fn jac(&self, _x: f64, y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, 3.0 * y[0] * y[0], 0.0]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0] - self.profile(0.0).0;
+        r[1] = yb[0] - self.profile(1.0).0;
+    }
+}
+impl Exact for InteriorLayer {
+    fn exact(&self, x: f64) -> Vec<f64> {
+        let (u, du, _) = self.profile(x);
+        vec![u, du]
+    }
+}
+
+/// Uniform mesh of `intervals` intervals on `[a, b]`.
+pub fn uniform(a: f64, b: f64, intervals: usize) -> Vec<f64> {
+    (0..=intervals).map(|i| a + (b - a) * i as f64 / intervals as f64).collect()
+}
+
+/// Max over nodes and components of |y - exact| relative to 1 + |exact| (first component
+/// only if `first_only`).
+pub fn node_error<P: Exact>(prob: &P, sol: &Solution) -> f64 {
+    let mut e = 0.0_f64;
+    for (i, &x) in sol.x.iter().enumerate() {
+        let ex = prob.exact(x);
+        for (a, b) in sol.y_at(i).iter().zip(&ex) {
+            e = e.max((a - b).abs() / (1.0 + b.abs()));
         }
     }
+    e
 }
 
-/// Constants [I1, I2, I3, alpha, beta, gamma, eta, delta].
-pub fn random_params(rng: &mut Rng) -> [f64; 8] {
-    let mut p = [0.0; 8];
-    for (i, v) in p.iter_mut().enumerate() {
-        *v = if i < 3 {
-            rng.uniform(0.5, 3.0)
-        } else {
-            rng.uniform(0.1, 2.0)
-        };
-    }
-    p
-}
-
-/// A state [Omega, xi, xi_dot, kappa] with xi away from zero; if `admissible`, <Omega, xi> = 0.
-pub fn random_state(rng: &mut Rng, admissible: bool) -> [f64; 12] {
-    let mut y = [0.0; 12];
-    for (i, v) in y.iter_mut().enumerate() {
-        *v = if (3..6).contains(&i) {
-            rng.sign() * rng.uniform(0.4, 1.6)
-        } else {
-            rng.uniform(-2.0, 2.0)
-        };
-    }
-    if admissible {
-        let om = [y[0], y[1], y[2]];
-        let n2 = om.iter().map(|v| v * v).sum::<f64>();
-        let c = (0..3).map(|i| om[i] * y[3 + i]).sum::<f64>() / n2;
-        for i in 0..3 {
-            y[3 + i] -= c * om[i];
+/// Same as [`node_error`] but through the dense output on a fine uniform grid.
+pub fn dense_error<P: Exact>(prob: &P, sol: &Solution, samples: usize) -> f64 {
+    let (a, b) = prob.interval();
+    let mut e = 0.0_f64;
+    for x in uniform(a, b, samples) {
+        let ex = prob.exact(x);
+        for (v, w) in sol.eval(x).iter().zip(&ex) {
+            e = e.max((v - w).abs() / (1.0 + w.abs()));
         }
     }
-    y
+    e
 }
 
-/// A smooth desired path with exact derivatives, Omega_d(t) and Omega_d'(t), as `w`.
-pub struct Path {
-    pub a: [f64; 3],
-    pub b: [f64; 3],
-    pub c: [f64; 3],
+/// Solve on a fixed uniform mesh starting from a perturbation-free, exact-solution-free
+/// guess `guess(x)`.
+pub fn solve_fixed<P: Exact>(prob: &P, intervals: usize, guess: &dyn Fn(f64) -> Vec<f64>, p: Vec<f64>) -> Solution {
+    let (a, b) = prob.interval();
+    let x = uniform(a, b, intervals);
+    let g = Guess::from_fn(&x, prob.n(), p, |t, out| out.copy_from_slice(&guess(t)));
+    let opts = Options { adapt_mesh: false, max_newton_iter: 30, tol: 1e-10, ..Options::default() };
+    solve(prob, &g, &opts).expect("valid input")
 }
 
-impl Path {
-    pub fn random(rng: &mut Rng) -> Self {
-        let mut r = || {
-            [
-                rng.uniform(-2.0, 2.0),
-                rng.uniform(-2.0, 2.0),
-                rng.uniform(-2.0, 2.0),
-            ]
-        };
-        Path {
-            a: r(),
-            b: r(),
-            c: r(),
-        }
-    }
-    /// Omega_d_i = a_i + b_i sin(t) + c_i t^2 / 10.
-    pub fn w(&self, t: f64) -> [f64; 6] {
-        let mut w = [0.0; 6];
-        for i in 0..3 {
-            w[i] = self.a[i] + self.b[i] * t.sin() + self.c[i] * t * t / 10.0;
-            w[3 + i] = self.b[i] * t.cos() + self.c[i] * t / 5.0;
-        }
-        w
-    }
-}
-
-/// d/dx of a vector function by central differences with one Richardson step (error O(h^4)).
-pub fn derivative<const N: usize>(mut f: impl FnMut(f64) -> [f64; N], x: f64, h: f64) -> [f64; N] {
-    let d = |f: &mut dyn FnMut(f64) -> [f64; N], h: f64| {
-        let (p, m) = (f(x + h), f(x - h));
-        let mut out = [0.0; N];
-        for i in 0..N {
-            out[i] = (p[i] - m[i]) / (2.0 * h);
-        }
-        out
-    };
-    let d1 = d(&mut f, h);
-    let d2 = d(&mut f, h / 2.0);
-    let mut out = [0.0; N];
-    for i in 0..N {
-        out[i] = (4.0 * d2[i] - d1[i]) / 3.0;
-    }
-    out
-}
-
-/// |a - b| <= tol * scale, with the scale a row or problem magnitude chosen by the caller.
-pub fn close(a: f64, b: f64, tol: f64, scale: f64) -> bool {
-    (a - b).abs() <= tol * scale.max(1.0)
+/// Least-squares slope of log(err) against log(h).
+pub fn fitted_order(hs: &[f64], errs: &[f64]) -> f64 {
+    let lx: Vec<f64> = hs.iter().map(|h| h.ln()).collect();
+    let ly: Vec<f64> = errs.iter().map(|e| e.ln()).collect();
+    let mx = lx.iter().sum::<f64>() / lx.len() as f64;
+    let my = ly.iter().sum::<f64>() / ly.len() as f64;
+    let num: f64 = lx.iter().zip(&ly).map(|(a, b)| (a - mx) * (b - my)).sum();
+    let den: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
+    num / den
 }

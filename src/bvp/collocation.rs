@@ -1,0 +1,527 @@
+//! The discretisation: 4-stage Lobatto IIIA collocation, its residual, its Jacobian, and the
+//! local elimination (condensation) of the interior stages.
+//!
+//! # Notation
+//!
+//! Mesh `a = x_0 < ... < x_{m-1} = b`, `N = m - 1` intervals, `h_i = x_{i+1} - x_i`.
+//! Nodes `c = (0, c_2, c_3, 1)`, `c_{2,3} = (5 -+ sqrt 5) / 10`. On interval `i` the stage
+//! values are `Y_1 = y_i`, `Y_2`, `Y_3`, `Y_4 = y_{i+1}` and `F_j = f(x_i + c_j h_i, Y_j, p)`.
+//!
+//! Unknown vector `u` (flat): `[ y_0 .. y_{m-1} (m*n) | p (k) | Y_2,Y_3 of each interval (N*2n) ]`.
+//! Residual vector (same length):
+//!
+//! ```text
+//! [ Phi_4 of each interval (N*n) | g (n+k) | Phi_2, Phi_3 of each interval (N*2n) ]
+//! Phi_s = Y_s     - y_i - h_i sum_j a_sj F_j    (s = 2, 3: stage equations)
+//! Phi_4 = y_{i+1} - y_i - h_i sum_j b_j  F_j    (continuity / collocation equation)
+//! ```
+//!
+//! The first `m*n + k` rows/unknowns form the *global* system; the stage rows/unknowns are
+//! eliminated interval by interval (see [`Collocation::evaluate_jacobian`]).
+
+use super::dense::{lu_factor, lu_solve, sub_mat_mul};
+use super::problem::{BvpProblem, Evaluator};
+
+/// Butcher tableau of the 4-stage Lobatto IIIA method and the polynomial basis of its
+/// collocation polynomial (used for dense output and error estimation).
+#[derive(Debug, Clone)]
+pub struct Tableau {
+    /// Nodes `c_j`.
+    pub c: [f64; 4],
+    /// `a[s][j] = int_0^{c_s} L_j(t) dt`.
+    pub a: [[f64; 4]; 4],
+    /// `b[j] = int_0^1 L_j(t) dt`.
+    pub b: [f64; 4],
+    /// Monomial coefficients of the Lagrange basis `L_j(t) = sum_q lag[j][q] t^q`.
+    pub lag: [[f64; 4]; 4],
+    /// Monomial coefficients of `beta_j(t) = int_0^t L_j`.
+    pub beta: [[f64; 5]; 4],
+    /// Interior 5-point Lobatto points where the residual is sampled, and their weights on
+    /// `[0, 1]` (the end points carry weight 1/20 each but the residual vanishes there).
+    pub sample: [(f64, f64); 3],
+}
+
+impl Tableau {
+    /// The 4-stage Lobatto IIIA tableau, computed from its nodes by exact integration of the
+    /// Lagrange basis.
+    pub fn lobatto_iiia4() -> Self {
+        let s5 = 5.0_f64.sqrt();
+        let c = [0.0, (5.0 - s5) / 10.0, (5.0 + s5) / 10.0, 1.0];
+        let mut lag = [[0.0; 4]; 4];
+        for j in 0..4 {
+            let mut poly = [1.0, 0.0, 0.0, 0.0];
+            let mut deg = 0;
+            for (q, &cq) in c.iter().enumerate() {
+                if q == j {
+                    continue;
+                }
+                let d = c[j] - cq;
+                let mut next = [0.0; 4];
+                for e in 0..=deg {
+                    next[e + 1] += poly[e] / d;
+                    next[e] -= poly[e] * cq / d;
+                }
+                poly = next;
+                deg += 1;
+            }
+            lag[j] = poly;
+        }
+        let mut beta = [[0.0; 5]; 4];
+        for j in 0..4 {
+            for q in 0..4 {
+                beta[j][q + 1] = lag[j][q] / (q + 1) as f64;
+            }
+        }
+        let mut a = [[0.0; 4]; 4];
+        for s in 0..4 {
+            for j in 0..4 {
+                a[s][j] = eval_poly5(&beta[j], c[s]);
+            }
+        }
+        let b = a[3];
+        let r = (3.0_f64 / 7.0).sqrt();
+        let sample = [
+            (0.5 * (1.0 - r), 49.0 / 180.0),
+            (0.5, 16.0 / 45.0),
+            (0.5 * (1.0 + r), 49.0 / 180.0),
+        ];
+        Self { c, a, b, lag, beta, sample }
+    }
+
+    /// Weights `(beta_j(t))_j` and `(L_j(t))_j` at `t` in `[0, 1]`.
+    pub fn basis(&self, t: f64) -> ([f64; 4], [f64; 4]) {
+        let mut bv = [0.0; 4];
+        let mut lv = [0.0; 4];
+        for j in 0..4 {
+            bv[j] = eval_poly5(&self.beta[j], t);
+            lv[j] = self.lag[j][0] + t * (self.lag[j][1] + t * (self.lag[j][2] + t * self.lag[j][3]));
+        }
+        (bv, lv)
+    }
+}
+
+fn eval_poly5(p: &[f64; 5], t: f64) -> f64 {
+    p[0] + t * (p[1] + t * (p[2] + t * (p[3] + t * p[4])))
+}
+
+/// Flat layout of unknowns and residuals for `n` states, `k` parameters, `m` nodes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) struct Layout {
+    pub n: usize,
+    pub k: usize,
+    pub m: usize,
+}
+
+impl Layout {
+    /// Number of intervals `N = m - 1`.
+    pub fn intervals(&self) -> usize {
+        self.m - 1
+    }
+    /// Size of the global (condensed) system: `m*n + k`.
+    pub fn global(&self) -> usize {
+        self.m * self.n + self.k
+    }
+    /// Total number of unknowns, stages included.
+    pub fn total(&self) -> usize {
+        self.global() + 2 * self.n * self.intervals()
+    }
+    /// Offset of the parameters in `u`.
+    pub fn p_offset(&self) -> usize {
+        self.m * self.n
+    }
+    /// Offset of the stages in `u` (and of the stage residuals).
+    pub fn stage_offset(&self) -> usize {
+        self.global()
+    }
+    /// Offset of the boundary residual `g` in the residual vector.
+    pub fn bc_offset(&self) -> usize {
+        self.intervals() * self.n
+    }
+}
+
+/// Per-mesh workspace: function values, Jacobians and condensed blocks of every interval.
+/// Allocated once per mesh; Newton iterations on that mesh allocate nothing.
+pub(crate) struct Collocation {
+    pub lay: Layout,
+    pub tab: Tableau,
+    pub x: Vec<f64>,
+    pub h: Vec<f64>,
+    /// `f` at the nodes (`m x n`) and at the interior stages (`N x 2 x n`).
+    pub fnodes: Vec<f64>,
+    pub fstages: Vec<f64>,
+    jy_nodes: Vec<f64>,
+    jp_nodes: Vec<f64>,
+    jy_stages: Vec<f64>,
+    jp_stages: Vec<f64>,
+    /// LU factors of the stage blocks `K_i` (`2n x 2n`) and their pivots.
+    klu: Vec<f64>,
+    kpiv: Vec<usize>,
+    /// `W_i = K_i^{-1} [M_a M_b M_p]` (`2n x (2n+k)`).
+    w: Vec<f64>,
+    /// `C_i = -h_i [b_2 J_2, b_3 J_3]` (`n x 2n`).
+    cmat: Vec<f64>,
+    /// Condensed blocks `[A_i B_i P_i]` (`n x (2n+k)`).
+    pub abp: Vec<f64>,
+    /// Boundary Jacobians `[dg/dya dg/dyb dg/dp]` (`(n+k) x (2n+k)`).
+    pub bc_blocks: Vec<f64>,
+    /// `z_i = K_i^{-1} Phi_st,i` from the last [`reduce_residual`](Self::reduce_residual).
+    z: Vec<f64>,
+    work: Vec<f64>,
+    bc_work: Vec<f64>,
+}
+
+impl Collocation {
+    /// Workspace for the mesh `x` (strictly increasing, at least two nodes).
+    pub fn new(n: usize, k: usize, x: &[f64]) -> Self {
+        let m = x.len();
+        let lay = Layout { n, k, m };
+        let nn = m - 1;
+        let s = 2 * n;
+        let wc = 2 * n + k;
+        Self {
+            lay,
+            tab: Tableau::lobatto_iiia4(),
+            x: x.to_vec(),
+            h: x.windows(2).map(|w| w[1] - w[0]).collect(),
+            fnodes: vec![0.0; m * n],
+            fstages: vec![0.0; nn * s],
+            jy_nodes: vec![0.0; m * n * n],
+            jp_nodes: vec![0.0; m * n * k],
+            jy_stages: vec![0.0; nn * 2 * n * n],
+            jp_stages: vec![0.0; nn * 2 * n * k],
+            klu: vec![0.0; nn * s * s],
+            kpiv: vec![0; nn * s],
+            w: vec![0.0; nn * s * wc],
+            cmat: vec![0.0; nn * n * s],
+            abp: vec![0.0; nn * n * wc],
+            bc_blocks: vec![0.0; (n + k) * wc],
+            z: vec![0.0; nn * s],
+            work: vec![0.0; 2 * n + k],
+            bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
+        }
+    }
+
+    /// Evaluate `f` at all nodes and stages of `u` and write the full residual `res`
+    /// (layout in the module docs). Returns `false` if `f` or `g` produced NaN/inf.
+    pub fn evaluate_residual<P: BvpProblem + ?Sized>(
+        &mut self,
+        ev: &Evaluator<P>,
+        u: &[f64],
+        res: &mut [f64],
+    ) -> bool {
+        let Layout { n, k, m } = self.lay;
+        let p = &u[self.lay.p_offset()..self.lay.p_offset() + k];
+        let so = self.lay.stage_offset();
+        for i in 0..m {
+            ev.eval_f(self.x[i], &u[i * n..(i + 1) * n], p, &mut self.fnodes[i * n..(i + 1) * n]);
+        }
+        for i in 0..m - 1 {
+            for s in 0..2 {
+                let off = (2 * i + s) * n;
+                let xs = self.x[i] + self.tab.c[s + 1] * self.h[i];
+                ev.eval_f(xs, &u[so + off..so + off + n], p, &mut self.fstages[off..off + n]);
+            }
+        }
+        let tab = &self.tab;
+        for i in 0..m - 1 {
+            let h = self.h[i];
+            let f0 = &self.fnodes[i * n..(i + 1) * n];
+            let f3 = &self.fnodes[(i + 1) * n..(i + 2) * n];
+            let f1 = &self.fstages[2 * i * n..(2 * i + 1) * n];
+            let f2 = &self.fstages[(2 * i + 1) * n..(2 * i + 2) * n];
+            let yi = &u[i * n..(i + 1) * n];
+            let yj = &u[(i + 1) * n..(i + 2) * n];
+            for r in 0..n {
+                let quad = |w: &[f64; 4]| w[0] * f0[r] + w[1] * f1[r] + w[2] * f2[r] + w[3] * f3[r];
+                res[i * n + r] = yj[r] - yi[r] - h * quad(&tab.b);
+                for s in 0..2 {
+                    let off = (2 * i + s) * n + r;
+                    res[so + off] = u[so + off] - yi[r] - h * quad(&tab.a[s + 1]);
+                }
+            }
+        }
+        let bo = self.lay.bc_offset();
+        ev.eval_bc(&u[0..n], &u[(m - 1) * n..m * n], p, &mut res[bo..bo + n + k]);
+        self.fnodes.iter().chain(self.fstages.iter()).all(|v| v.is_finite())
+            && res.iter().all(|v| v.is_finite())
+    }
+
+    /// Evaluate all Jacobians at `u` and condense every interval.
+    ///
+    /// Requires that [`evaluate_residual`](Self::evaluate_residual) was last called with the
+    /// same `u` (its `f` values serve the finite-difference fallback); `res` is that residual.
+    ///
+    /// Linearising the stage equations of interval `i` gives
+    ///
+    /// ```text
+    /// K dY + M_a dy_i + M_b dy_{i+1} + M_p dp = -Phi_st,
+    /// K   = [[I - h a22 J2, -h a23 J3], [-h a32 J2, I - h a33 J3]]         (2n x 2n)
+    /// M_a = [-I - h a21 J1; -I - h a31 J1],  M_b = [-h a24 J4; -h a34 J4]
+    /// M_p = [-h sum_j a2j P_j; -h sum_j a3j P_j]
+    /// ```
+    ///
+    /// (`J_j = df/dy`, `P_j = df/dp` at stage `j`), so `dY = -(z + W [dy_i; dy_{i+1}; dp])`
+    /// with `z = K^{-1} Phi_st`, `W = K^{-1} [M_a M_b M_p]`. Substituting into the linearised
+    /// continuity equation gives the condensed blocks
+    ///
+    /// ```text
+    /// [A_i B_i P_i] = [-I - h b1 J1,  I - h b4 J4,  -h sum_j b_j P_j] - C W,
+    /// C = [-h b2 J2, -h b3 J3],   right-hand side  -(Phi_4 - C z).
+    /// ```
+    ///
+    /// Returns `Err(i)` if `K_i` is singular or a Jacobian is not finite (interval `i`;
+    /// `i = N` for the boundary Jacobian).
+    pub fn evaluate_jacobian<P: BvpProblem + ?Sized>(
+        &mut self,
+        ev: &Evaluator<P>,
+        u: &[f64],
+        res: &[f64],
+    ) -> Result<(), usize> {
+        let Layout { n, k, m } = self.lay;
+        let nn = m - 1;
+        let p = &u[self.lay.p_offset()..self.lay.p_offset() + k];
+        let so = self.lay.stage_offset();
+        let (n2, nk) = (n * n, n * k);
+        for i in 0..m {
+            ev.eval_jac(
+                self.x[i],
+                &u[i * n..(i + 1) * n],
+                p,
+                &self.fnodes[i * n..(i + 1) * n],
+                &mut self.jy_nodes[i * n2..(i + 1) * n2],
+                &mut self.jp_nodes[i * nk..(i + 1) * nk],
+                &mut self.work,
+            );
+        }
+        for i in 0..nn {
+            for s in 0..2 {
+                let q = 2 * i + s;
+                let xs = self.x[i] + self.tab.c[s + 1] * self.h[i];
+                ev.eval_jac(
+                    xs,
+                    &u[so + q * n..so + (q + 1) * n],
+                    p,
+                    &self.fstages[q * n..(q + 1) * n],
+                    &mut self.jy_stages[q * n2..(q + 1) * n2],
+                    &mut self.jp_stages[q * nk..(q + 1) * nk],
+                    &mut self.work,
+                );
+            }
+        }
+        for i in 0..nn {
+            self.condense_interval(i)?;
+        }
+        self.evaluate_bc_jacobian(ev, u, &res[self.lay.bc_offset()..self.lay.bc_offset() + n + k])
+            .map_err(|_| nn)
+    }
+
+    /// Build `K_i`, `W_i`, `C_i` and `[A_i B_i P_i]` of interval `i` (formulas in
+    /// [`evaluate_jacobian`](Self::evaluate_jacobian)).
+    fn condense_interval(&mut self, i: usize) -> Result<(), usize> {
+        let Layout { n, k, .. } = self.lay;
+        let s = 2 * n;
+        let wc = 2 * n + k;
+        let (n2, nk) = (n * n, n * k);
+        let h = self.h[i];
+        let tab = &self.tab;
+        let jy = |j: usize| -> &[f64] {
+            match j {
+                0 => &self.jy_nodes[i * n2..(i + 1) * n2],
+                3 => &self.jy_nodes[(i + 1) * n2..(i + 2) * n2],
+                _ => &self.jy_stages[(2 * i + j - 1) * n2..(2 * i + j) * n2],
+            }
+        };
+        let jp = |j: usize| -> &[f64] {
+            match j {
+                0 => &self.jp_nodes[i * nk..(i + 1) * nk],
+                3 => &self.jp_nodes[(i + 1) * nk..(i + 2) * nk],
+                _ => &self.jp_stages[(2 * i + j - 1) * nk..(2 * i + j) * nk],
+            }
+        };
+        let klu = &mut self.klu[i * s * s..(i + 1) * s * s];
+        let w = &mut self.w[i * s * wc..(i + 1) * s * wc];
+        let cm = &mut self.cmat[i * n * s..(i + 1) * n * s];
+        let abp = &mut self.abp[i * n * wc..(i + 1) * n * wc];
+        for sr in 0..2 {
+            let arow = &tab.a[sr + 1];
+            for r in 0..n {
+                let row = sr * n + r;
+                // K: columns of stages 2 and 3.
+                for sc in 0..2 {
+                    let jac = jy(sc + 1);
+                    for c in 0..n {
+                        let delta = if sr == sc && r == c { 1.0 } else { 0.0 };
+                        klu[row * s + sc * n + c] = delta - h * arow[sc + 1] * jac[r * n + c];
+                    }
+                }
+                // M = [M_a M_b M_p].
+                let j0 = jy(0);
+                let j3 = jy(3);
+                for c in 0..n {
+                    let delta = if r == c { 1.0 } else { 0.0 };
+                    w[row * wc + c] = -delta - h * arow[0] * j0[r * n + c];
+                    w[row * wc + n + c] = -h * arow[3] * j3[r * n + c];
+                }
+                for c in 0..k {
+                    let mut acc = 0.0;
+                    for (j, &aj) in arow.iter().enumerate() {
+                        acc += aj * jp(j)[r * k + c];
+                    }
+                    w[row * wc + 2 * n + c] = -h * acc;
+                }
+            }
+        }
+        // C and the uncondensed part of [A B P].
+        for r in 0..n {
+            for sc in 0..2 {
+                let jac = jy(sc + 1);
+                for c in 0..n {
+                    cm[r * s + sc * n + c] = -h * tab.b[sc + 1] * jac[r * n + c];
+                }
+            }
+            let (j0, j3) = (jy(0), jy(3));
+            for c in 0..n {
+                let delta = if r == c { 1.0 } else { 0.0 };
+                abp[r * wc + c] = -delta - h * tab.b[0] * j0[r * n + c];
+                abp[r * wc + n + c] = delta - h * tab.b[3] * j3[r * n + c];
+            }
+            for c in 0..k {
+                let mut acc = 0.0;
+                for (j, &bj) in tab.b.iter().enumerate() {
+                    acc += bj * jp(j)[r * k + c];
+                }
+                abp[r * wc + 2 * n + c] = -h * acc;
+            }
+        }
+        let piv = &mut self.kpiv[i * s..(i + 1) * s];
+        if !lu_factor(klu, s, piv) {
+            return Err(i);
+        }
+        lu_solve(klu, s, piv, w, wc);
+        sub_mat_mul(abp, cm, w, n, s, wc);
+        if abp.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(i)
+        }
+    }
+
+    /// Boundary Jacobians into `bc_blocks` (row-major `(n+k) x (2n+k)`: `[dya dyb dp]`).
+    fn evaluate_bc_jacobian<P: BvpProblem + ?Sized>(
+        &mut self,
+        ev: &Evaluator<P>,
+        u: &[f64],
+        g0: &[f64],
+    ) -> Result<(), ()> {
+        let Layout { n, k, m } = self.lay;
+        let rows = n + k;
+        let wc = 2 * n + k;
+        let (work, jacs) = self.bc_work.split_at_mut(3 * n + 2 * k);
+        let (dya, rest) = jacs.split_at_mut(rows * n);
+        let (dyb, dp) = rest.split_at_mut(rows * n);
+        let p = &u[self.lay.p_offset()..self.lay.p_offset() + k];
+        ev.eval_bc_jac(&u[0..n], &u[(m - 1) * n..m * n], p, g0, dya, dyb, &mut dp[..rows * k], work);
+        for r in 0..rows {
+            self.bc_blocks[r * wc..r * wc + n].copy_from_slice(&dya[r * n..(r + 1) * n]);
+            self.bc_blocks[r * wc + n..r * wc + 2 * n].copy_from_slice(&dyb[r * n..(r + 1) * n]);
+            self.bc_blocks[r * wc + 2 * n..(r + 1) * wc].copy_from_slice(&dp[r * k..(r + 1) * k]);
+        }
+        if self.bc_blocks.iter().all(|v| v.is_finite()) {
+            Ok(())
+        } else {
+            Err(())
+        }
+    }
+
+    /// Eliminate the stage residuals from `res` (full residual) and write the global
+    /// right-hand side `rhs = -[Phi_4 - C z; g]` (length `m*n + k`); keeps `z` for
+    /// [`expand_correction`](Self::expand_correction).
+    pub fn reduce_residual(&mut self, res: &[f64], rhs: &mut [f64]) {
+        let Layout { n, .. } = self.lay;
+        let s = 2 * n;
+        let so = self.lay.stage_offset();
+        for i in 0..self.lay.intervals() {
+            let z = &mut self.z[i * s..(i + 1) * s];
+            z.copy_from_slice(&res[so + i * s..so + (i + 1) * s]);
+            lu_solve(&self.klu[i * s * s..(i + 1) * s * s], s, &self.kpiv[i * s..(i + 1) * s], z, 1);
+            let cm = &self.cmat[i * n * s..(i + 1) * n * s];
+            for r in 0..n {
+                let mut acc = res[i * n + r];
+                for (cv, zv) in cm[r * s..(r + 1) * s].iter().zip(z.iter()) {
+                    acc -= cv * zv;
+                }
+                rhs[i * n + r] = -acc;
+            }
+        }
+        let bo = self.lay.bc_offset();
+        let g = self.lay.global();
+        for (r, v) in rhs[bo..g].iter_mut().zip(&res[bo..g]) {
+            *r = -v;
+        }
+    }
+
+    /// Given the global part `delta[..m*n+k]` of a correction, fill its stage part:
+    /// `dY_i = -(z_i + W_i [dy_i; dy_{i+1}; dp])`.
+    pub fn expand_correction(&self, delta: &mut [f64]) {
+        let Layout { n, k, .. } = self.lay;
+        let s = 2 * n;
+        let wc = 2 * n + k;
+        let po = self.lay.p_offset();
+        let so = self.lay.stage_offset();
+        let (glob, stages) = delta.split_at_mut(so);
+        for i in 0..self.lay.intervals() {
+            let w = &self.w[i * s * wc..(i + 1) * s * wc];
+            let yy = &glob[i * n..(i + 2) * n];
+            let dp = &glob[po..po + k];
+            for r in 0..s {
+                let wr = &w[r * wc..(r + 1) * wc];
+                let mut acc = self.z[i * s + r];
+                for (wv, yv) in wr[..2 * n].iter().zip(yy) {
+                    acc += wv * yv;
+                }
+                for (wv, pv) in wr[2 * n..].iter().zip(dp) {
+                    acc += wv * pv;
+                }
+                stages[i * s + r] = -acc;
+            }
+        }
+    }
+}
+
+impl Collocation {
+    /// Copy the condensed blocks and the boundary Jacobian into `values`, in
+    /// [`global_jacobian_pattern`](super::linear::global_jacobian_pattern) order.
+    pub fn assemble_global(&self, values: &mut [f64]) {
+        let (blocks, bc) = values.split_at_mut(self.abp.len());
+        blocks.copy_from_slice(&self.abp);
+        bc.copy_from_slice(&self.bc_blocks);
+    }
+}
+
+/// Evaluate the collocation polynomial of interval `i` at `t` in `[0, 1]` (local
+/// coordinate): `u = y_i + h sum_j beta_j(t) F_j` and `u' = sum_j L_j(t) F_j`, with
+/// `F = (f_i, F_2, F_3, f_{i+1})`. Either output may be empty to skip it.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn eval_collocation_polynomial(
+    tab: &Tableau,
+    n: usize,
+    h: f64,
+    yi: &[f64],
+    fi: &[f64],
+    fst: &[f64],
+    fj: &[f64],
+    t: f64,
+    y_out: &mut [f64],
+    dy_out: &mut [f64],
+) {
+    let (bv, lv) = tab.basis(t);
+    for r in 0..n {
+        let fs = [fi[r], fst[r], fst[n + r], fj[r]];
+        if !y_out.is_empty() {
+            y_out[r] = yi[r] + h * (bv[0] * fs[0] + bv[1] * fs[1] + bv[2] * fs[2] + bv[3] * fs[3]);
+        }
+        if !dy_out.is_empty() {
+            dy_out[r] = lv[0] * fs[0] + lv[1] * fs[1] + lv[2] * fs[2] + lv[3] * fs[3];
+        }
+    }
+}

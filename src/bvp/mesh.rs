@@ -1,0 +1,233 @@
+//! Error estimation and mesh adaptation.
+//!
+//! 1. [`estimate_errors`]: sample the residual `r = u' - f(x, u, p)` of the collocation
+//!    polynomial at the three interior 5-point Lobatto points of every interval (it vanishes
+//!    at the four collocation points) and form the per-interval measures of
+//!    [`ErrorControl`]; also verify the discrete equations and the boundary conditions.
+//! 2. [`adapt_mesh`]: equidistribute the predicted number of subintervals. With
+//!    `e_i ~ C h_i^q` (`q = 5` for error control, 4 for residual control) interval `i` wants
+//!    `m_i = (e_i / target)^(1/q)` subintervals. Intervals far below the tolerance
+//!    (`m_i <= 1/2`) get `m_i = 1/2` (pairs merge: coarsening), intervals in between keep
+//!    `m_i = 1`, and `m_i <= 8` per pass (the estimate is asymptotic). The new mesh
+//!    equidistributes the piecewise-constant density `m_i / h_i`.
+//! 3. [`halve_mesh`]: uniform bisection, used when Newton fails on a mesh.
+//! 4. [`transfer_solution`]: move the iterate to a new mesh through the dense output.
+
+use super::collocation::{eval_collocation_polynomial, Collocation};
+use super::options::{ErrorControl, Options};
+use super::problem::{BvpProblem, Evaluator};
+
+/// The relative target of equidistribution: aim at `e_i = 0.25` (the tolerance is 1).
+pub(crate) const EQUIDISTRIBUTION_TARGET: f64 = 0.25;
+/// At most this many subintervals are made from one interval per pass.
+const MAX_SPLIT: f64 = 8.0;
+/// Intervals that could be merged in pairs get this weight.
+const MERGE_WEIGHT: f64 = 0.5;
+
+/// Per-interval estimates and the after-the-fact verification of a candidate solution.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ErrorEstimate {
+    /// Normalised per-interval estimate of the chosen [`ErrorControl`] (`<= 1` passes).
+    pub errors: Vec<f64>,
+    /// Per-interval RMS relative residual (scipy's measure).
+    pub residuals: Vec<f64>,
+    pub max_error: f64,
+    pub max_residual: f64,
+    /// Largest scaled defect of the discrete equations (`<= 1` passes): continuity defect
+    /// `|Phi_4| (b - a) / h` and stage defect `|Phi_s| (b - a) / h`, over `atol s_j + tol |y_j|`.
+    pub max_defect: f64,
+    /// `max |g|`.
+    pub bc_residual: f64,
+    /// All sampled values finite.
+    pub finite: bool,
+}
+
+/// Estimate errors of the iterate `u` on the mesh of `col`.
+///
+/// Requires [`Collocation::evaluate_residual`] at `u` just before (it provides `f` at the
+/// collocation points and the residual `res`). Costs `3N` evaluations of `f`.
+pub(crate) fn estimate_errors<P: BvpProblem + ?Sized>(
+    ev: &Evaluator<P>,
+    col: &Collocation,
+    u: &[f64],
+    res: &[f64],
+    opts: &Options,
+) -> ErrorEstimate {
+    let lay = col.lay;
+    let (n, k) = (lay.n, lay.k);
+    let nn = lay.intervals();
+    let tol = opts.tol;
+    let absw = opts.abs_weights(n);
+    let p = &u[lay.p_offset()..lay.p_offset() + k];
+    let length = col.x[nn] - col.x[0];
+    let mut est = ErrorEstimate {
+        errors: vec![0.0; nn],
+        residuals: vec![0.0; nn],
+        finite: true,
+        ..Default::default()
+    };
+    let mut uq = vec![0.0; n];
+    let mut duq = vec![0.0; n];
+    let mut fq = vec![0.0; n];
+    let so = lay.stage_offset();
+    for i in 0..nn {
+        let h = col.h[i];
+        let mut err2 = 0.0;
+        let mut res2 = 0.0;
+        for &(t, wq) in &col.tab.sample {
+            eval_collocation_polynomial(
+                &col.tab,
+                n,
+                h,
+                &u[i * n..(i + 1) * n],
+                &col.fnodes[i * n..(i + 1) * n],
+                &col.fstages[2 * i * n..(2 * i + 2) * n],
+                &col.fnodes[(i + 1) * n..(i + 2) * n],
+                t,
+                &mut uq,
+                &mut duq,
+            );
+            ev.eval_f(col.x[i] + t * h, &uq, p, &mut fq);
+            let mut emax = 0.0_f64;
+            let mut rsum = 0.0;
+            for j in 0..n {
+                let r = duq[j] - fq[j];
+                emax = emax.max(r.abs() / (absw[j] + tol * uq[j].abs()));
+                let rr = r / (1.0 + fq[j].abs());
+                rsum += rr * rr;
+            }
+            err2 += wq * emax * emax;
+            res2 += wq * rsum;
+        }
+        let rms_res = res2.sqrt();
+        est.residuals[i] = rms_res;
+        est.errors[i] = match opts.error_control {
+            ErrorControl::Error => h * err2.sqrt(),
+            ErrorControl::Residual => rms_res / tol,
+        };
+        // Discrete equations: continuity and stage defects, scaled to an accumulated error.
+        let amp = length / h;
+        for j in 0..n {
+            let wy = |v: f64| absw[j] + tol * v.abs();
+            let d4 = res[i * n + j].abs() / wy(u[(i + 1) * n + j]);
+            let d2 = res[so + 2 * i * n + j].abs() / wy(u[so + 2 * i * n + j]);
+            let d3 = res[so + (2 * i + 1) * n + j].abs() / wy(u[so + (2 * i + 1) * n + j]);
+            est.max_defect = est.max_defect.max(amp * d4.max(d2).max(d3));
+        }
+    }
+    let bo = lay.bc_offset();
+    est.bc_residual = res[bo..bo + n + k].iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    est.max_error = est.errors.iter().fold(0.0_f64, |a, &v| a.max(v));
+    est.max_residual = est.residuals.iter().fold(0.0_f64, |a, &v| a.max(v));
+    est.finite = est.errors.iter().chain(&est.residuals).all(|v| v.is_finite())
+        && est.max_defect.is_finite()
+        && est.bc_residual.is_finite();
+    if !est.finite {
+        est.max_error = f64::INFINITY;
+    }
+    est
+}
+
+/// Equidistributing refinement and coarsening of `x` from normalised estimates `errors`
+/// (`e_i ~ h_i^order`); see the module docs. Returns the new mesh (same end points).
+pub(crate) fn adapt_mesh(x: &[f64], errors: &[f64], order: f64) -> Vec<f64> {
+    let weights: Vec<f64> = errors
+        .iter()
+        .map(|&e| {
+            let raw = (e / EQUIDISTRIBUTION_TARGET).powf(1.0 / order);
+            if raw > 1.0 {
+                raw.min(MAX_SPLIT)
+            } else if raw <= MERGE_WEIGHT {
+                MERGE_WEIGHT
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let total: f64 = weights.iter().sum();
+    let intervals = (total.ceil() as usize).max(1);
+    equidistribute(x, &weights, intervals)
+}
+
+/// Nodes `z_0 = x_0 < ... < z_J = x_N` with equal mass of the piecewise-constant density
+/// `w_i / h_i` between consecutive nodes.
+fn equidistribute(x: &[f64], weights: &[f64], intervals: usize) -> Vec<f64> {
+    let total: f64 = weights.iter().sum();
+    let step = total / intervals as f64;
+    let mut out = Vec::with_capacity(intervals + 1);
+    out.push(x[0]);
+    let mut i = 0;
+    let mut acc = 0.0; // mass up to x[i]
+    for j in 1..intervals {
+        let target = j as f64 * step;
+        while i < weights.len() - 1 && acc + weights[i] < target {
+            acc += weights[i];
+            i += 1;
+        }
+        let frac = ((target - acc) / weights[i]).clamp(0.0, 1.0);
+        let z = x[i] + frac * (x[i + 1] - x[i]);
+        if z > *out.last().expect("mesh has a first node") {
+            out.push(z);
+        }
+    }
+    out.push(x[x.len() - 1]);
+    out
+}
+
+/// Bisect every interval.
+pub(crate) fn halve_mesh(x: &[f64]) -> Vec<f64> {
+    let mut out = Vec::with_capacity(2 * x.len() - 1);
+    for w in x.windows(2) {
+        out.push(w[0]);
+        out.push(0.5 * (w[0] + w[1]));
+    }
+    out.push(x[x.len() - 1]);
+    out
+}
+
+/// The iterate `u` on the mesh of `col` resampled on `new_x` (nodes and stages) through the
+/// collocation polynomials; parameters are copied. `col` must hold `f` at `u`.
+pub(crate) fn transfer_solution(col: &Collocation, u: &[f64], new_x: &[f64]) -> Vec<f64> {
+    let lay = col.lay;
+    let (n, k) = (lay.n, lay.k);
+    let m_new = new_x.len();
+    let new_lay = super::collocation::Layout { n, k, m: m_new };
+    let mut out = vec![0.0; new_lay.total()];
+    let old_x = &col.x;
+    let eval_at = |xq: f64, dst: &mut [f64]| {
+        let i = old_x.partition_point(|&v| v <= xq).saturating_sub(1).min(lay.m - 2);
+        let h = col.h[i];
+        eval_collocation_polynomial(
+            &col.tab,
+            n,
+            h,
+            &u[i * n..(i + 1) * n],
+            &col.fnodes[i * n..(i + 1) * n],
+            &col.fstages[2 * i * n..(2 * i + 2) * n],
+            &col.fnodes[(i + 1) * n..(i + 2) * n],
+            (xq - old_x[i]) / h,
+            dst,
+            &mut [],
+        );
+    };
+    for (i, &xq) in new_x.iter().enumerate() {
+        // Reuse exact node values where a node is kept.
+        let j = old_x.partition_point(|&v| v < xq);
+        if j < lay.m && old_x[j] == xq {
+            out[i * n..(i + 1) * n].copy_from_slice(&u[j * n..(j + 1) * n]);
+        } else {
+            eval_at(xq, &mut out[i * n..(i + 1) * n]);
+        }
+    }
+    let po = lay.p_offset();
+    out[new_lay.p_offset()..new_lay.p_offset() + k].copy_from_slice(&u[po..po + k]);
+    let so = new_lay.stage_offset();
+    for i in 0..m_new - 1 {
+        let h = new_x[i + 1] - new_x[i];
+        for s in 0..2 {
+            let off = so + (2 * i + s) * n;
+            eval_at(new_x[i] + col.tab.c[s + 1] * h, &mut out[off..off + n]);
+        }
+    }
+    out
+}

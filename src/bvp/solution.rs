@@ -1,0 +1,335 @@
+//! What the solver returns: [`Solution`] (mesh, values, parameters, dense output, [`Stats`],
+//! [`Status`]), what it accepts as a starting point ([`Guess`]) and what it reports while
+//! running ([`Progress`]).
+
+use super::collocation::{eval_collocation_polynomial, Tableau};
+
+/// How a solve ended. Only [`Status::Converged`] is a success; use
+/// [`Status::is_success`] rather than comparing variants.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Status {
+    /// Newton converged, every interval meets the error tolerance, the discrete equations
+    /// hold and `max |g| <= bc_tol` (all verified on the returned solution).
+    Converged,
+    /// Fixed mesh (`adapt_mesh = false`): the discrete system was solved but the error
+    /// estimate exceeds the tolerance.
+    ToleranceNotMet,
+    /// Meeting the tolerance would need more than `max_nodes` nodes.
+    MaxNodes,
+    /// `max_mesh_passes` mesh passes did not reach the tolerance.
+    MaxMeshPasses,
+    /// The Newton matrix (a stage block or the global system) is singular, or so
+    /// ill-conditioned that the solution is not determined to the tolerance
+    /// (`stats.bc_condition * tol > conditioning_limit`, or
+    /// `stats.condition_estimate * eps > 1e-3`).
+    SingularJacobian,
+    /// Damped Newton failed repeatedly (even after mesh halving).
+    NoConvergence,
+    /// The problem returned NaN or infinity.
+    NonFinite,
+    /// Everything converged except the boundary conditions: `max |g| > bc_tol`.
+    BcTolNotMet,
+}
+
+impl Status {
+    /// True only for [`Status::Converged`].
+    pub fn is_success(self) -> bool {
+        self == Status::Converged
+    }
+
+    /// A human explanation with what to try next.
+    pub fn message(self) -> &'static str {
+        match self {
+            Status::Converged => "The algorithm converged to the desired accuracy.",
+            Status::ToleranceNotMet => {
+                "The collocation equations were solved on the fixed mesh, but the error estimate \
+                 exceeds the tolerance; refine the mesh or enable mesh adaptation."
+            }
+            Status::MaxNodes => {
+                "The maximum number of mesh nodes would be exceeded; raise `max_nodes`, loosen \
+                 `tol`, or provide a better initial guess/mesh."
+            }
+            Status::MaxMeshPasses => {
+                "The maximum number of mesh passes was reached before the tolerance was met; \
+                 raise `max_mesh_passes` or provide a better initial mesh."
+            }
+            Status::SingularJacobian => {
+                "A singular Jacobian was encountered when solving the collocation system; the \
+                 problem may be ill-posed (no or non-unique solution) or the guess degenerate."
+            }
+            Status::NoConvergence => {
+                "Newton's method did not converge, even after refining the mesh; try a better \
+                 initial guess or continuation from an easier problem."
+            }
+            Status::NonFinite => {
+                "The problem returned NaN or infinity; check the domain of f and g along the \
+                 iterates."
+            }
+            Status::BcTolNotMet => {
+                "The solution meets the error tolerance but the boundary conditions do not \
+                 meet `bc_tol`."
+            }
+        }
+    }
+}
+
+impl std::fmt::Display for Status {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{:?}: {}", self, self.message())
+    }
+}
+
+/// Counters and final measures of a solve.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Stats {
+    /// Newton iterations over all meshes (simplified iterations included).
+    pub newton_iterations: usize,
+    /// Global Newton Jacobians evaluated (each needs `df/dy` at `3m - 2` points).
+    pub jacobian_evaluations: usize,
+    /// Numeric sparse LU factorisations of the global system.
+    pub factorizations: usize,
+    /// Evaluations of `f` (finite-difference evaluations included).
+    pub f_evaluations: usize,
+    /// Evaluations of `g` (finite-difference evaluations included).
+    pub bc_evaluations: usize,
+    /// Mesh passes (Newton solve + error estimate).
+    pub mesh_passes: usize,
+    /// Number of nodes of the mesh of every pass, in order.
+    pub mesh_history: Vec<usize>,
+    /// Largest per-interval error estimate (normalised: `<= 1` meets the tolerance).
+    pub max_error: f64,
+    /// Largest per-interval RMS relative residual `|u' - f| / (1 + |f|)` (scipy's measure).
+    pub max_residual: f64,
+    /// `max |g(y(a), y(b), p)|` at the returned solution.
+    pub bc_residual: f64,
+    /// Sensitivity of the discrete solution to the boundary data on the last mesh:
+    /// `max_r ||J^{-1} e_r||_inf` over boundary rows `r` (see `Options::conditioning_limit`).
+    pub bc_condition: f64,
+    /// Estimate of the 1-norm condition number of the condensed global Newton matrix on the
+    /// last mesh (Hager-Higham). Above `1e-3 / eps` the matrix counts as numerically singular.
+    pub condition_estimate: f64,
+}
+
+/// One report to the progress hook.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Progress {
+    /// Mesh pass (0-based).
+    pub pass: usize,
+    /// Nodes of the current mesh.
+    pub nodes: usize,
+    /// What happened.
+    pub event: ProgressEvent,
+}
+
+/// Events reported through [`Progress`].
+#[derive(Debug, Clone, PartialEq)]
+pub enum ProgressEvent {
+    /// An accepted Newton step.
+    NewtonStep {
+        /// Iteration on this mesh (0-based).
+        iteration: usize,
+        /// Scaled max-norm of the correction (1 = tolerance level).
+        correction_norm: f64,
+        /// Damping factor used.
+        damping: f64,
+        /// Whether the Jacobian was evaluated at this iterate (false: reused).
+        fresh_jacobian: bool,
+    },
+    /// A mesh pass finished.
+    MeshPass {
+        /// Did Newton converge on this mesh?
+        newton_converged: bool,
+        /// Largest normalised error estimate.
+        max_error: f64,
+        /// Largest RMS relative residual.
+        max_residual: f64,
+        /// Nodes of the next mesh, if there is one.
+        next_nodes: Option<usize>,
+    },
+}
+
+/// A starting point: mesh, values at the nodes, parameters, and optionally the interior
+/// stage values (a warm start from a [`Solution`] carries them, which makes it exact).
+///
+/// The solver only reads a guess; it never modifies the caller's data.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Guess {
+    pub(crate) x: Vec<f64>,
+    pub(crate) y: Vec<f64>,
+    pub(crate) p: Vec<f64>,
+    pub(crate) stages: Option<Vec<f64>>,
+}
+
+impl Guess {
+    /// Values `y` (row-major `m x n`: `y[i*n + j]` = component `j` at node `x[i]`) on the mesh
+    /// `x`, with parameters `p`. Interior stages are interpolated linearly.
+    pub fn from_values(x: Vec<f64>, y: Vec<f64>, p: Vec<f64>) -> Self {
+        Self { x, y, p, stages: None }
+    }
+
+    /// Sample `y0(x, out)` (writes `n` values) at the nodes of `x` and at the interior
+    /// collocation points.
+    pub fn from_fn(x: &[f64], n: usize, p: Vec<f64>, mut y0: impl FnMut(f64, &mut [f64])) -> Self {
+        let m = x.len();
+        let mut y = vec![0.0; m * n];
+        for (i, &xi) in x.iter().enumerate() {
+            y0(xi, &mut y[i * n..(i + 1) * n]);
+        }
+        let tab = Tableau::lobatto_iiia4();
+        let mut stages = vec![0.0; m.saturating_sub(1) * 2 * n];
+        for i in 0..m.saturating_sub(1) {
+            let h = x[i + 1] - x[i];
+            for s in 0..2 {
+                let off = (2 * i + s) * n;
+                y0(x[i] + tab.c[s + 1] * h, &mut stages[off..off + n]);
+            }
+        }
+        Self { x: x.to_vec(), y, p, stages: Some(stages) }
+    }
+
+    /// A warm start from a previous solution: its mesh, node and stage values and
+    /// parameters (an exact restart: Newton converges at once if nothing changed).
+    pub fn from_solution(sol: &Solution) -> Self {
+        Self { x: sol.x.clone(), y: sol.y.clone(), p: sol.p.clone(), stages: Some(sol.stages.clone()) }
+    }
+
+    /// A previous solution resampled on another mesh `x` through its dense output.
+    pub fn from_solution_on_mesh(sol: &Solution, x: &[f64]) -> Self {
+        let n = sol.n;
+        let p = sol.p.clone();
+        Self::from_fn(x, n, p, |t, out| sol.eval_into(t, out))
+    }
+
+    /// Replace the parameters (e.g. a continuation predictor).
+    pub fn with_parameters(mut self, p: Vec<f64>) -> Self {
+        self.p = p;
+        self
+    }
+
+    /// Mesh.
+    pub fn x(&self) -> &[f64] {
+        &self.x
+    }
+    /// Node values, row-major `m x n`.
+    pub fn y(&self) -> &[f64] {
+        &self.y
+    }
+    /// Parameters.
+    pub fn p(&self) -> &[f64] {
+        &self.p
+    }
+}
+
+impl From<&Solution> for Guess {
+    fn from(sol: &Solution) -> Self {
+        Guess::from_solution(sol)
+    }
+}
+
+/// The result of a solve. Check [`status`](Self::status) (or [`is_success`](Self::is_success))
+/// before trusting the values: a non-converged result still carries the last iterate.
+///
+/// Dense output: on each interval the collocation polynomial (quartic, C1 across nodes since
+/// its derivative equals `f` at both ends) is evaluated by [`eval`](Self::eval) and
+/// [`eval_derivative`](Self::eval_derivative); its uniform error is `O(h^5)`, at the nodes
+/// `O(h^6)`.
+#[derive(Debug, Clone)]
+pub struct Solution {
+    /// How the solve ended.
+    pub status: Status,
+    /// Mesh nodes (`m`).
+    pub x: Vec<f64>,
+    /// Values at the nodes, row-major `m x n`.
+    pub y: Vec<f64>,
+    /// `f(x_i, y_i, p)` at the nodes, row-major `m x n`.
+    pub yp: Vec<f64>,
+    /// Unknown parameters (`k`).
+    pub p: Vec<f64>,
+    /// Per-interval normalised error estimates (`N = m - 1`; `<= 1` meets the tolerance).
+    pub errors: Vec<f64>,
+    /// Per-interval RMS relative residuals (scipy's measure).
+    pub residuals: Vec<f64>,
+    /// Counters and final measures.
+    pub stats: Stats,
+    pub(crate) n: usize,
+    pub(crate) k: usize,
+    pub(crate) stages: Vec<f64>,
+    pub(crate) stage_f: Vec<f64>,
+    pub(crate) tab: Tableau,
+}
+
+impl Solution {
+    /// Number of states `n`.
+    pub fn n(&self) -> usize {
+        self.n
+    }
+    /// Number of parameters `k`.
+    pub fn k(&self) -> usize {
+        self.k
+    }
+    /// Number of mesh nodes `m`.
+    pub fn num_nodes(&self) -> usize {
+        self.x.len()
+    }
+    /// True only if the status is [`Status::Converged`].
+    pub fn is_success(&self) -> bool {
+        self.status.is_success()
+    }
+    /// Human explanation of the status.
+    pub fn message(&self) -> &'static str {
+        self.status.message()
+    }
+    /// Values at node `i`.
+    pub fn y_at(&self, i: usize) -> &[f64] {
+        &self.y[i * self.n..(i + 1) * self.n]
+    }
+
+    /// Interval containing `x` and local coordinate `t` (outside `[a, b]` the end
+    /// polynomials are extrapolated).
+    fn locate(&self, x: f64) -> (usize, f64) {
+        let m = self.x.len();
+        let i = self.x.partition_point(|&v| v <= x).saturating_sub(1).min(m - 2);
+        let h = self.x[i + 1] - self.x[i];
+        (i, (x - self.x[i]) / h)
+    }
+
+    fn eval_parts(&self, x: f64, y_out: &mut [f64], dy_out: &mut [f64]) {
+        let n = self.n;
+        let (i, t) = self.locate(x);
+        let h = self.x[i + 1] - self.x[i];
+        eval_collocation_polynomial(
+            &self.tab,
+            n,
+            h,
+            &self.y[i * n..(i + 1) * n],
+            &self.yp[i * n..(i + 1) * n],
+            &self.stage_f[2 * i * n..(2 * i + 2) * n],
+            &self.yp[(i + 1) * n..(i + 2) * n],
+            t,
+            y_out,
+            dy_out,
+        );
+    }
+
+    /// `y(x)` from the dense output, written into `out` (length `n`).
+    pub fn eval_into(&self, x: f64, out: &mut [f64]) {
+        self.eval_parts(x, out, &mut []);
+    }
+    /// `y(x)` from the dense output.
+    pub fn eval(&self, x: f64) -> Vec<f64> {
+        let mut out = vec![0.0; self.n];
+        self.eval_into(x, &mut out);
+        out
+    }
+    /// `y'(x)` from the dense output, written into `out` (length `n`).
+    pub fn eval_derivative_into(&self, x: f64, out: &mut [f64]) {
+        self.eval_parts(x, &mut [], out);
+    }
+    /// `y'(x)` from the dense output.
+    pub fn eval_derivative(&self, x: f64) -> Vec<f64> {
+        let mut out = vec![0.0; self.n];
+        self.eval_derivative_into(x, &mut out);
+        out
+    }
+}

@@ -1,0 +1,1 @@
+//! Unit tests of the internals: tableau, sparsity pattern, condensed Newton correction.
