@@ -10,4 +10,6 @@
 //! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov.
 
 pub mod bvp;
+pub mod ivp;
 pub mod model;
+pub mod suslov;
