@@ -14,6 +14,7 @@
 pub mod desired;
 pub mod ellipsoid;
 pub mod equations;
+pub mod problem;
 pub mod properties;
 pub mod reintegrate;
 pub mod singular;

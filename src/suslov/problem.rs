@@ -1,0 +1,367 @@
+//! Suslov's optimal control problem as data ([`SuslovProblem`]), its validation, and its
+//! two-point BVP on normalized time ([`SuslovBvp`]), which joins the generated model to the
+//! generic solver in [`crate::bvp`].
+//!
+//! The BVP (paper eqs. `p_sys_explicit`, `p_lbc`, `p_rbc`), on `s ∈ [0, 1]`, `t = a + sT`:
+//!
+//! ```text
+//! dy/ds = T f(y, Ω_d(a + sT)),       y = [Ω, ξ, ξ̇, κ] ∈ R¹²
+//! Ω(0) = Ω_a,  p_ξ(0) = ⟨κ,ξ⟩Ω + βξ̇ = 0        (6 conditions at a)
+//! Ω(1) = Ω_b,  p_ξ(1) = 0                        (6 conditions at b)
+//! C − ⟨p_Ω, Ω̇⟩ = 0 at b                          (free terminal time only; T unknown)
+//! ```
+
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+
+use crate::bvp::BvpProblem;
+use crate::model::generated as g;
+
+use super::desired::DesiredPath;
+use super::ellipsoid::{EnergyEllipsoid, Inertia};
+
+/// The weights of the cost integrand
+/// `C = α/4 (|ξ|² − 1)² + β/2 |ξ̇|² + γ/2 |Ω − Ω_d|² + η/2 |Ω̇|² + δ` (paper eq. `cost_function`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CostWeights {
+    /// Keeps `|ξ|` near 1 (> 0).
+    pub alpha: f64,
+    /// Control effort `|ξ̇|²` (> 0; `β = 0` is a singular problem, paper section 4.4).
+    pub beta: f64,
+    /// Tracking of the desired path (≥ 0).
+    pub gamma: f64,
+    /// Smoothness `|Ω̇|²` (≥ 0).
+    pub eta: f64,
+    /// Weight of the time (≥ 0).
+    pub delta: f64,
+}
+
+impl CostWeights {
+    /// The paper's weights (section 5.3) for a given `η`.
+    pub fn paper(eta: f64) -> Self {
+        Self {
+            alpha: 1.0,
+            beta: 0.1,
+            gamma: 1.0,
+            eta,
+            delta: 0.2,
+        }
+    }
+}
+
+/// Fixed or free terminal time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TerminalTime {
+    /// `b` is given.
+    Fixed(f64),
+    /// `b` is unknown; the value is where continuation starts (`b_p`, Properties 1–3).
+    Free {
+        /// Start value of `b`.
+        guess: f64,
+    },
+}
+
+impl TerminalTime {
+    /// The given `b`, or the starting guess.
+    pub fn initial(&self) -> f64 {
+        match *self {
+            TerminalTime::Fixed(b) | TerminalTime::Free { guess: b } => b,
+        }
+    }
+}
+
+/// A Suslov optimal control problem (paper eq. `dyn_opt_problem_spec` with the cost above).
+#[derive(Clone)]
+pub struct SuslovProblem {
+    /// Principal moments of inertia.
+    pub inertia: Inertia,
+    /// Cost weights.
+    pub weights: CostWeights,
+    /// Initial time `a`.
+    pub t0: f64,
+    /// `Ω(a)`.
+    pub omega_a: Vector3<f64>,
+    /// `Ω(b)`, on the energy ellipsoid of `Ω_a`.
+    pub omega_b: Vector3<f64>,
+    /// Fixed or free `b`.
+    pub terminal: TerminalTime,
+    /// The desired body angular velocity `Ω_d(t)`, with exact derivatives.
+    pub desired: Arc<dyn DesiredPath + Send + Sync>,
+}
+
+impl std::fmt::Debug for SuslovProblem {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("SuslovProblem")
+            .field("inertia", &self.inertia.diag())
+            .field("weights", &self.weights)
+            .field("t0", &self.t0)
+            .field("omega_a", &self.omega_a)
+            .field("omega_b", &self.omega_b)
+            .field("terminal", &self.terminal)
+            .finish_non_exhaustive()
+    }
+}
+
+/// Relative energy mismatch allowed between `Ω_a` and `Ω_b` (their kinetic energies).
+pub const ENERGY_REL_TOL: f64 = 1e-9;
+
+/// What is wrong with a [`SuslovProblem`]; each names the field and the fix.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ProblemError {
+    /// A number is NaN or infinite.
+    #[error("{field} = {value} is not a finite number")]
+    NotFinite {
+        /// The field.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+    },
+    /// A weight is out of range.
+    #[error("{field} = {value}: {requirement}")]
+    Weight {
+        /// The field.
+        field: &'static str,
+        /// Its value.
+        value: f64,
+        /// What is required and why.
+        requirement: &'static str,
+    },
+    /// `Ω_b` is not on `Ω_a`'s energy ellipsoid.
+    #[error(
+        "omega_b = {omega_b:?} is off omega_a's energy ellipsoid by {mismatch:.3e} (relative; \
+         allowed {ENERGY_REL_TOL:e}): Suslov's equations conserve the kinetic energy, so no \
+         control reaches it. Its radial projection onto the ellipsoid is {projection:?}"
+    )]
+    OffEllipsoid {
+        /// The given `Ω_b`.
+        omega_b: [f64; 3],
+        /// Relative energy mismatch.
+        mismatch: f64,
+        /// The projection to use instead.
+        projection: [f64; 3],
+    },
+    /// `Ω_a = 0`: the ellipsoid degenerates.
+    #[error("omega_a must be nonzero (it fixes the kinetic energy of the motion)")]
+    ZeroOmegaA,
+    /// The time interval is empty or reversed.
+    #[error("terminal time b = {b} must be greater than t0 = {t0}")]
+    EmptyInterval {
+        /// `t0`.
+        t0: f64,
+        /// `b`.
+        b: f64,
+    },
+}
+
+impl SuslovProblem {
+    /// The generated model's constant vector `p = [I1, I2, I3, α, β, γ, η, δ]`.
+    pub fn params(&self) -> [f64; 8] {
+        let d = self.inertia.diag();
+        let w = &self.weights;
+        [d[0], d[1], d[2], w.alpha, w.beta, w.gamma, w.eta, w.delta]
+    }
+
+    /// The energy ellipsoid through `Ω_a`.
+    pub fn ellipsoid(&self) -> EnergyEllipsoid {
+        EnergyEllipsoid::through(self.inertia, &self.omega_a)
+            .expect("Ω_a validated nonzero and finite")
+    }
+
+    /// Check every field; the first problem found is returned.
+    pub fn validate(&self) -> Result<(), ProblemError> {
+        let w = &self.weights;
+        let finite = [
+            ("t0", self.t0),
+            ("terminal_time", self.terminal.initial()),
+            ("omega_a[0]", self.omega_a[0]),
+            ("omega_a[1]", self.omega_a[1]),
+            ("omega_a[2]", self.omega_a[2]),
+            ("omega_b[0]", self.omega_b[0]),
+            ("omega_b[1]", self.omega_b[1]),
+            ("omega_b[2]", self.omega_b[2]),
+            ("alpha", w.alpha),
+            ("beta", w.beta),
+            ("gamma", w.gamma),
+            ("eta", w.eta),
+            ("delta", w.delta),
+        ];
+        for (field, value) in finite {
+            if !value.is_finite() {
+                return Err(ProblemError::NotFinite { field, value });
+            }
+        }
+        let positive = "must be > 0: alpha keeps |xi| near 1 and beta > 0 makes the problem \
+                        nonsingular (paper section 4.4; beta = 0 needs alpha > 0 too)";
+        for (field, value) in [("alpha", w.alpha), ("beta", w.beta)] {
+            if value <= 0.0 {
+                return Err(ProblemError::Weight {
+                    field,
+                    value,
+                    requirement: positive,
+                });
+            }
+        }
+        for (field, value) in [("gamma", w.gamma), ("eta", w.eta), ("delta", w.delta)] {
+            if value < 0.0 {
+                return Err(ProblemError::Weight {
+                    field,
+                    value,
+                    requirement: "must be >= 0 (a negative weight rewards the term)",
+                });
+            }
+        }
+        if self.omega_a.norm() == 0.0 {
+            return Err(ProblemError::ZeroOmegaA);
+        }
+        let b = self.terminal.initial();
+        if b <= self.t0 {
+            return Err(ProblemError::EmptyInterval { t0: self.t0, b });
+        }
+        let e = self.ellipsoid();
+        let mismatch = e.relative_mismatch(&self.omega_b);
+        if !(mismatch <= ENERGY_REL_TOL) {
+            let projection = e
+                .project(&self.omega_b)
+                .map(|v| [v[0], v[1], v[2]])
+                .unwrap_or([f64::NAN; 3]);
+            return Err(ProblemError::OffEllipsoid {
+                omega_b: [self.omega_b[0], self.omega_b[1], self.omega_b[2]],
+                mismatch,
+                projection,
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The Suslov BVP on normalized time `s ∈ [0, 1]`, for given constants (which continuation
+/// changes) and a fixed or unknown `T = b − a` (the BVP's one parameter when free).
+pub struct SuslovBvp<'a> {
+    /// `[I1, I2, I3, α, β, γ, η, δ]`.
+    pub params: [f64; 8],
+    /// `Ω(a)`.
+    pub omega_a: [f64; 3],
+    /// `Ω(b)`.
+    pub omega_b: [f64; 3],
+    /// `a`.
+    pub t0: f64,
+    /// `Some(T)` for a fixed terminal time, `None` when `T` is the unknown parameter.
+    pub fixed_span: Option<f64>,
+    /// `Ω_d`.
+    pub desired: &'a dyn DesiredPath,
+}
+
+impl<'a> SuslovBvp<'a> {
+    /// The BVP of `problem` with its own weights and terminal-time mode.
+    pub fn new(problem: &'a SuslovProblem) -> Self {
+        let fixed_span = match problem.terminal {
+            TerminalTime::Fixed(b) => Some(b - problem.t0),
+            TerminalTime::Free { .. } => None,
+        };
+        Self {
+            params: problem.params(),
+            omega_a: problem.omega_a.into(),
+            omega_b: problem.omega_b.into(),
+            t0: problem.t0,
+            fixed_span,
+            desired: &*problem.desired,
+        }
+    }
+
+    fn span(&self, p: &[f64]) -> f64 {
+        self.fixed_span.unwrap_or_else(|| p[0])
+    }
+
+    /// `w = [Ω_d(t), Ω̇_d(t)]`.
+    pub fn desired_at(&self, t: f64) -> [f64; 6] {
+        let jet = self.desired.jet(t);
+        [
+            jet.value[0],
+            jet.value[1],
+            jet.value[2],
+            jet.d1[0],
+            jet.d1[1],
+            jet.d1[2],
+        ]
+    }
+}
+
+fn arr12(y: &[f64]) -> &[f64; 12] {
+    y.try_into().expect("the solver passes n = 12 states")
+}
+
+impl BvpProblem for SuslovBvp<'_> {
+    fn n(&self) -> usize {
+        12
+    }
+
+    fn k(&self) -> usize {
+        usize::from(self.fixed_span.is_none())
+    }
+
+    fn f(&self, s: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
+        let t_span = self.span(p);
+        let w = self.desired_at(self.t0 + s * t_span);
+        let out: &mut [f64; 12] = dy.try_into().expect("n = 12");
+        g::ode_rhs_scaled(arr12(y), &self.params, &w, t_span, out);
+    }
+
+    fn jac(&self, s: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
+        let t_span = self.span(p);
+        let w = self.desired_at(self.t0 + s * t_span);
+        let mut dgdy = [[0.0; 12]; 12];
+        let mut dgdt = [0.0; 12];
+        g::ode_jac_scaled(arr12(y), &self.params, &w, t_span, s, &mut dgdy, &mut dgdt);
+        for (row, out) in dgdy.iter().zip(dfdy.chunks_exact_mut(12)) {
+            out.copy_from_slice(row);
+        }
+        if self.fixed_span.is_none() {
+            dfdp.copy_from_slice(&dgdt);
+        }
+        true
+    }
+
+    fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
+        let mut left = [0.0; 6];
+        let mut right = [0.0; 6];
+        g::bc_endpoint(arr12(ya), &self.params, &self.omega_a, &mut left);
+        g::bc_endpoint(arr12(yb), &self.params, &self.omega_b, &mut right);
+        res[..6].copy_from_slice(&left);
+        res[6..12].copy_from_slice(&right);
+        if self.fixed_span.is_none() {
+            let wb = self.desired_at(self.t0 + p[0]);
+            res[12] = g::free_time_condition(arr12(yb), &self.params, &wb);
+        }
+    }
+
+    fn bc_jac(
+        &self,
+        ya: &[f64],
+        yb: &[f64],
+        p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        dp: &mut [f64],
+    ) -> bool {
+        dya.fill(0.0);
+        dyb.fill(0.0);
+        dp.fill(0.0);
+        let mut d = [[0.0; 12]; 6];
+        g::bc_endpoint_jac(arr12(ya), &self.params, &self.omega_a, &mut d);
+        for (i, row) in d.iter().enumerate() {
+            dya[i * 12..(i + 1) * 12].copy_from_slice(row);
+        }
+        g::bc_endpoint_jac(arr12(yb), &self.params, &self.omega_b, &mut d);
+        for (i, row) in d.iter().enumerate() {
+            dyb[(6 + i) * 12..(7 + i) * 12].copy_from_slice(row);
+        }
+        if self.fixed_span.is_none() {
+            let wb = self.desired_at(self.t0 + p[0]);
+            let mut d_y = [0.0; 12];
+            dp[12] = g::free_time_condition_jac(arr12(yb), &self.params, &wb, &mut d_y);
+            dyb[12 * 12..13 * 12].copy_from_slice(&d_y);
+        }
+        true
+    }
+}
