@@ -292,7 +292,7 @@ impl ProjectedSegment {
         let d = omega_b - omega_a;
         let s = (-omega_a.dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
         let closest = (omega_a + d * s).norm();
-        if !(closest > 1e-8 * omega_a.norm()) {
+        if closest.is_nan() || closest <= 1e-8 * omega_a.norm() {
             return Err(SuslovError::InvalidInput {
                 what: format!(
                     "the segment from Omega_a to Omega_b passes within {closest:e} of the origin; its radial projection is undefined (antipodal end points?)"
