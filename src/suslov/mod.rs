@@ -49,7 +49,10 @@ pub use desired::{
 pub use ellipsoid::{kinetic_energy, EnergyEllipsoid, Inertia};
 pub use equations::{suslov_multiplier, suslov_residual, suslov_rhs};
 pub use properties::{check_properties, PropertyReport};
-pub use singular::{singular_control, singular_control_at, SingularControl};
+pub use singular::{
+    singular_control, singular_control_at, singular_jet, singular_jet_at, SingularControl,
+    SingularJet,
+};
 
 /// Errors of the Suslov layer (misuse and undefined quantities; never non-convergence).
 #[derive(Debug, thiserror::Error)]
