@@ -19,6 +19,26 @@
 //!   `t = b`: the radial projection of the straight segment, traversed at constant parameter
 //!   speed (the paper's suggested nominal `Ω_p` when `γ = 0`, section 5.2).
 //!
+//! # Writing a path
+//! Implement [`PathEval`] once, generically; [`DesiredPath::jet`] then gives exact
+//! derivatives. The scalar methods (`sin`, `exp`, `sqrt`, …) come from [`DualNum`], re-exported
+//! here.
+//!
+//! ```
+//! use suslov::suslov::desired::{DesiredPath, DualNum, PathEval, Scalar};
+//!
+//! /// Ω(t) = [1, sin t, e^{-t}]
+//! struct MyPath;
+//! impl PathEval for MyPath {
+//!     fn eval<D: Scalar>(&self, t: D) -> [D; 3] {
+//!         [D::from(1.0), t.sin(), (-t).exp()]
+//!     }
+//! }
+//! let jet = MyPath.jet(0.0);
+//! assert_eq!(jet.d1[1], 1.0); // d/dt sin t at 0
+//! assert_eq!(jet.d3[2], -1.0); // d³/dt³ e^{-t} at 0
+//! ```
+//!
 //! # tanh at large arguments
 //! `num-dual` evaluates `tanh` of a dual number as `sinh/cosh`, which is `inf/inf = NaN` for
 //! `|x| ≳ 710`. The sigmoid here uses [`stable_tanh`], which only ever exponentiates
@@ -28,7 +48,8 @@
 //! `t < b_d − 19.1 w ≈ 9.809`: there `Ω_d = φ_∥` bit for bit.
 
 use nalgebra::Vector3;
-use num_dual::{Dual3, DualNum};
+use num_dual::Dual3;
+pub use num_dual::DualNum;
 
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
 use super::SuslovError;

@@ -49,6 +49,10 @@ pub use desired::{
 pub use ellipsoid::{kinetic_energy, EnergyEllipsoid, Inertia};
 pub use equations::{suslov_multiplier, suslov_residual, suslov_rhs};
 pub use properties::{check_properties, PropertyReport};
+pub use reintegrate::{
+    compare, reintegrate, reintegrate_with_xi_dot, singular_control_fn, stability_experiment,
+    Comparison, Perturbation, Reintegration, StabilityReport,
+};
 pub use singular::{
     singular_control, singular_control_at, singular_jet, singular_jet_at, SingularControl,
     SingularJet,

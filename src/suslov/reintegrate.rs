@@ -32,13 +32,24 @@ use std::cell::RefCell;
 use nalgebra::Vector3;
 use serde::Serialize;
 
+use super::desired::DesiredPath;
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
 use super::equations::suslov_rhs;
+use super::singular::singular_control_at;
 use super::SuslovError;
 use crate::ivp::{integrate, IvpOptions, IvpStats};
 
 /// A control `t ↦ (ξ(t), ξ̇(t))`; an `Err` aborts the integration and is returned.
 pub type Control<'c> = dyn Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + 'c;
+
+/// The singular control `t ↦ (ξ_p(t), ξ̇_p(t))` of a path (paper section 5.1) as a
+/// [`Control`]; a violation of Property 3 becomes an `Err` that aborts the re-integration.
+pub fn singular_control_fn(
+    path: &dyn DesiredPath,
+    inertia: Inertia,
+) -> impl Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + '_ {
+    move |t| singular_control_at(path, &inertia, t).map(|c| (c.xi, c.xi_dot))
+}
 
 /// A re-integrated trajectory at the requested times.
 #[derive(Debug, Clone, PartialEq)]
@@ -331,7 +342,6 @@ pub fn stability_experiment(
 mod tests {
     use super::*;
     use crate::suslov::desired::{DesiredPath, PaperSpiral, Projected};
-    use crate::suslov::singular::singular_control_at;
 
     fn grid(a: f64, b: f64, m: usize) -> Vec<f64> {
         (0..=m)
@@ -345,10 +355,10 @@ mod tests {
             .collect()
     }
 
-    fn singular_of<'p>(
-        path: &'p dyn DesiredPath,
-    ) -> impl Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + 'p {
-        move |t| singular_control_at(path, &Inertia::paper(), t).map(|c| (c.xi, c.xi_dot))
+    fn singular_of(
+        path: &dyn DesiredPath,
+    ) -> impl Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + '_ {
+        singular_control_fn(path, Inertia::paper())
     }
 
     #[test]
