@@ -221,7 +221,11 @@ where
             what: format!("y0 must be non-empty and finite; got {y0:?}"),
         });
     }
-    if t_out.windows(2).any(|w| !(w[0] <= w[1])) || t_out.iter().any(|t| !(*t >= t0 && *t <= t1)) {
+    if t_out
+        .windows(2)
+        .any(|w| w[0].partial_cmp(&w[1]).is_none_or(|o| o.is_gt()))
+        || t_out.iter().any(|t| !(t0..=t1).contains(t))
+    {
         return Err(IvpError::InvalidInput {
             what: format!("output times must be non-decreasing and inside [{t0}, {t1}]"),
         });

@@ -154,6 +154,21 @@ mod tests {
         ] {
             eprintln!("{name}: {r:#?}");
         }
+        // How far the admissible candidates are from the paper's Om_d on [0, 10].
+        let proj = Projected::new(p.clone(), *p.ellipsoid());
+        let (mut gap_phi, mut gap_proj, mut first_diff) = (0.0f64, 0.0f64, f64::NAN);
+        for k in 0..N {
+            let t = 10.0 * k as f64 / (N - 1) as f64;
+            let d = p.value(t);
+            let g = (p.phi_par().value(t) - d).norm();
+            if g > 0.0 && first_diff.is_nan() {
+                first_diff = t;
+            }
+            gap_phi = gap_phi.max(g);
+            gap_proj = gap_proj.max((proj.value(t) - d).norm());
+        }
+        eprintln!("max|phi_par - Om_d| = {gap_phi:e}, max|Projected(Om_d) - Om_d| = {gap_proj:e}, phi_par != Om_d from t = {first_diff}");
+        assert!(first_diff > 9.8 && gap_phi < 5e-3 && gap_proj < 2e-5);
         // P1 for all four.
         for r in [om_d, projected, phi_par, segment] {
             assert!(r.start_error == 0.0 && r.end_error < 1e-14, "{r:?}");

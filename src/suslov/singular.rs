@@ -6,11 +6,15 @@
 //! `λ(Ω_p, ξ_p) = |ξ̃|`. Its exact derivative, from `Ω̈_p`, is
 //! `ξ̃̇ = IΩ̈_p − (IΩ̇_p) × Ω_p − (IΩ_p) × Ω̇_p` and `ξ̇_p = (ξ̃̇ − ξ_p⟨ξ_p, ξ̃̇⟩)/|ξ̃|`.
 //!
+//! With `Ω⃛_p` also `ξ̃̈ = IΩ⃛_p − (IΩ̈_p) × Ω_p − 2(IΩ̇_p) × Ω̇_p − (IΩ_p) × Ω̈_p`,
+//! `λ̇ = ⟨ξ_p, ξ̃̇⟩`, `λ̈ = ⟨ξ̇_p, ξ̃̇⟩ + ⟨ξ_p, ξ̃̈⟩` and `ξ̈_p = (ξ̃̈ − 2λ̇ξ̇_p − λ̈ξ_p)/λ`
+//! ([`singular_jet`]), e.g. for the derivative of a BVP initial guess containing `ξ̇`.
+//!
 //! This plain-Rust version is an independent cross-check of the generated one.
 
 use nalgebra::Vector3;
 
-use super::desired::DesiredPath;
+use super::desired::{DesiredPath, Jet};
 use super::ellipsoid::Inertia;
 use super::SuslovError;
 
@@ -28,6 +32,17 @@ pub struct SingularControl {
     pub xi_dot: Vector3<f64>,
     /// `λ(Ω_p, ξ_p) = |ξ̃|`
     pub lambda: f64,
+    /// `λ̇ = ⟨ξ_p, ξ̃̇⟩`
+    pub lambda_dot: f64,
+}
+
+/// The singular control with its second derivative.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SingularJet {
+    /// `ξ̃`, `ξ_p`, `ξ̇_p`, `λ`, `λ̇`.
+    pub control: SingularControl,
+    /// `ξ̈_p` (exact, from `Ω⃛_p`).
+    pub xi_ddot: Vector3<f64>,
 }
 
 /// `ξ_p`, `ξ̇_p` from `Ω_p`, `Ω̇_p`, `Ω̈_p` (paper eq. `xi_p_eq`).
@@ -50,12 +65,33 @@ pub fn singular_control(
     }
     let xi = xi_tilde / norm;
     let xi_tilde_dot = inertia.apply(omega_ddot) - i_om_dot.cross(omega) - i_om.cross(omega_dot);
-    let xi_dot = (xi_tilde_dot - xi * xi.dot(&xi_tilde_dot)) / norm;
+    let lambda_dot = xi.dot(&xi_tilde_dot);
+    let xi_dot = (xi_tilde_dot - xi * lambda_dot) / norm;
     Ok(SingularControl {
         xi_tilde,
         xi,
         xi_dot,
         lambda: norm,
+        lambda_dot,
+    })
+}
+
+/// [`singular_control`] plus `ξ̈_p`, from the full jet `(Ω_p, Ω̇_p, Ω̈_p, Ω⃛_p)`.
+pub fn singular_jet(inertia: &Inertia, jet: &Jet) -> Result<SingularJet, SuslovError> {
+    let c = singular_control(inertia, &jet.value, &jet.d1, &jet.d2)?;
+    let (om, d1, d2) = (&jet.value, &jet.d1, &jet.d2);
+    let i_om = inertia.apply(om);
+    let i_d1 = inertia.apply(d1);
+    let xi_tilde_dot = inertia.apply(d2) - i_d1.cross(om) - i_om.cross(d1);
+    let xi_tilde_ddot = inertia.apply(&jet.d3)
+        - inertia.apply(d2).cross(om)
+        - i_d1.cross(d1) * 2.0
+        - i_om.cross(d2);
+    let lambda_ddot = c.xi_dot.dot(&xi_tilde_dot) + c.xi.dot(&xi_tilde_ddot);
+    let xi_ddot = (xi_tilde_ddot - c.xi_dot * (2.0 * c.lambda_dot) - c.xi * lambda_ddot) / c.lambda;
+    Ok(SingularJet {
+        control: c,
+        xi_ddot,
     })
 }
 
@@ -66,12 +102,25 @@ pub fn singular_control_at(
     t: f64,
 ) -> Result<SingularControl, SuslovError> {
     let jet = path.jet(t);
-    singular_control(inertia, &jet.value, &jet.d1, &jet.d2).map_err(|e| match e {
+    singular_control(inertia, &jet.value, &jet.d1, &jet.d2).map_err(|e| at_time(e, t))
+}
+
+/// [`singular_jet`] of a path at time `t`, with its exact derivatives.
+pub fn singular_jet_at(
+    path: &dyn DesiredPath,
+    inertia: &Inertia,
+    t: f64,
+) -> Result<SingularJet, SuslovError> {
+    singular_jet(inertia, &path.jet(t)).map_err(|e| at_time(e, t))
+}
+
+fn at_time(e: SuslovError, t: f64) -> SuslovError {
+    match e {
         SuslovError::EulerSolution { norm, scale } => {
             SuslovError::EulerSolutionAt { t, norm, scale }
         }
         other => other,
-    })
+    }
 }
 
 #[cfg(test)]
@@ -107,9 +156,9 @@ mod tests {
         // Wrap xi_p(t) of phi_par as a path and compare its FD derivative with xi_dot.
         struct Xi(PaperSpiral);
         impl DesiredPath for Xi {
-            fn jet(&self, t: f64) -> crate::suslov::desired::Jet {
+            fn jet(&self, t: f64) -> Jet {
                 let c = singular_control_at(self.0.phi_par(), &Inertia::paper(), t).unwrap();
-                crate::suslov::desired::Jet {
+                Jet {
                     value: c.xi,
                     d1: c.xi_dot,
                     d2: Vector3::zeros(),
@@ -121,6 +170,48 @@ mod tests {
         for t in [0.7, 3.3, 8.1] {
             let (fd, _, _) = finite_difference_derivatives(&xi, t, 1e-2);
             assert_relative_eq!(xi.jet(t).d1, fd, max_relative = 1e-8, epsilon = 1e-9);
+        }
+    }
+
+    #[test]
+    fn xi_ddot_and_lambda_dot_are_exact() {
+        // FD of (xi_dot, lambda) from singular_control_at vs xi_ddot, lambda_dot.
+        struct XiDot(PaperSpiral, usize);
+        impl DesiredPath for XiDot {
+            fn jet(&self, t: f64) -> Jet {
+                let c = singular_control_at(self.0.phi_par(), &Inertia::paper(), t).unwrap();
+                let value = if self.1 == 0 {
+                    c.xi_dot
+                } else {
+                    Vector3::new(c.lambda, 0.0, 0.0)
+                };
+                Jet {
+                    value,
+                    d1: Vector3::zeros(),
+                    d2: Vector3::zeros(),
+                    d3: Vector3::zeros(),
+                }
+            }
+        }
+        let p = PaperSpiral::paper();
+        for t in [0.0, 0.7, 3.3, 8.1, 10.0] {
+            let j = singular_jet_at(p.phi_par(), &Inertia::paper(), t).unwrap();
+            let (fd, _, _) = finite_difference_derivatives(&XiDot(p.clone(), 0), t, 1e-2);
+            assert_relative_eq!(j.xi_ddot, fd, max_relative = 1e-8, epsilon = 1e-8);
+            let (fd, _, _) = finite_difference_derivatives(&XiDot(p.clone(), 1), t, 1e-2);
+            assert_relative_eq!(
+                j.control.lambda_dot,
+                fd[0],
+                max_relative = 1e-8,
+                epsilon = 1e-9
+            );
+            // |xi| = 1: <xi, xi_ddot> = -|xi_dot|^2.
+            assert_relative_eq!(
+                j.control.xi.dot(&j.xi_ddot),
+                -j.control.xi_dot.norm_squared(),
+                max_relative = 1e-12,
+                epsilon = 1e-12
+            );
         }
     }
 
