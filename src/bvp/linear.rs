@@ -81,13 +81,23 @@ impl GlobalSystem {
     /// Build the pattern and its symbolic LU for `n` states, `k` parameters, `m` nodes.
     pub fn new(n: usize, k: usize, m: usize) -> Self {
         let order = m * n + k;
-        let pattern: Vec<Pair<usize, usize>> =
-            global_jacobian_pattern(n, k, m).into_iter().map(|(r, c)| Pair::new(r, c)).collect();
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(order, order, &pattern)
-            .expect("the global pattern has in-bounds, well-formed indices by construction");
+        let pattern: Vec<Pair<usize, usize>> = global_jacobian_pattern(n, k, m)
+            .into_iter()
+            .map(|(r, c)| Pair::new(r, c))
+            .collect();
+        let (symbolic, argsort) =
+            SymbolicSparseColMat::try_new_from_indices(order, order, &pattern)
+                .expect("the global pattern has in-bounds, well-formed indices by construction");
         let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
             .expect("symbolic LU of the global pattern (allocation failure)");
-        Self { order, symbolic, argsort, symbolic_lu, values: vec![0.0; pattern.len()], lu: None }
+        Self {
+            order,
+            symbolic,
+            argsort,
+            symbolic_lu,
+            values: vec![0.0; pattern.len()],
+            lu: None,
+        }
     }
 
     /// Order of the system, `m*n + k`.
@@ -98,8 +108,9 @@ impl GlobalSystem {
     /// Numeric LU of the current `values` (symbolic analysis reused).
     pub fn factor(&mut self) -> Result<(), FactorError> {
         self.lu = None;
-        let mat = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &self.values)
-            .map_err(|_| FactorError::Singular)?;
+        let mat =
+            SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &self.values)
+                .map_err(|_| FactorError::Singular)?;
         let lu = Lu::try_new_with_symbolic(self.symbolic_lu.clone(), mat.as_ref())
             .map_err(|_| FactorError::Singular)?;
         self.lu = Some(lu);
@@ -137,10 +148,15 @@ impl GlobalSystem {
     /// matrix (Hager's estimator as refined by Higham, TOMS 14 (1988): at most 5 pairs of
     /// solves with `J` and `J^T`). Infinite if there is no factorisation or a solve fails.
     pub fn condition_estimate(&self, n: usize, k: usize, m: usize) -> f64 {
-        let Some(lu) = &self.lu else { return f64::INFINITY };
+        let Some(lu) = &self.lu else {
+            return f64::INFINITY;
+        };
         let order = self.order;
         let mut col_sums = vec![0.0; order];
-        for ((_, c), v) in global_jacobian_pattern(n, k, m).into_iter().zip(&self.values) {
+        for ((_, c), v) in global_jacobian_pattern(n, k, m)
+            .into_iter()
+            .zip(&self.values)
+        {
             col_sums[c] += v.abs();
         }
         let norm = col_sums.iter().fold(0.0_f64, |a, &v| a.max(v));
@@ -149,7 +165,10 @@ impl GlobalSystem {
         let mut est = 0.0;
         for iter in 0..5 {
             y.copy_from_slice(&x);
-            lu.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut y, order, 1));
+            lu.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut y, order, 1),
+            );
             if !y.iter().all(|v| v.is_finite()) {
                 return f64::INFINITY;
             }
@@ -158,13 +177,24 @@ impl GlobalSystem {
                 break;
             }
             est = new_est;
-            let mut z: Vec<f64> = y.iter().map(|&v| if v >= 0.0 { 1.0 } else { -1.0 }).collect();
-            lu.solve_transpose_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut z, order, 1));
+            let mut z: Vec<f64> = y
+                .iter()
+                .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
+                .collect();
+            lu.solve_transpose_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut z, order, 1),
+            );
             if !z.iter().all(|v| v.is_finite()) {
                 return f64::INFINITY;
             }
-            let (j, zmax) =
-                z.iter().enumerate().fold((0, 0.0_f64), |(bj, bv), (i, v)| if v.abs() > bv { (i, v.abs()) } else { (bj, bv) });
+            let (j, zmax) = z.iter().enumerate().fold((0, 0.0_f64), |(bj, bv), (i, v)| {
+                if v.abs() > bv {
+                    (i, v.abs())
+                } else {
+                    (bj, bv)
+                }
+            });
             let ztx: f64 = z.iter().zip(&x).map(|(a, b)| a * b).sum();
             if iter > 0 && zmax <= ztx {
                 break;
@@ -178,7 +208,10 @@ impl GlobalSystem {
     /// The assembled matrix as dense row-major (tests and diagnostics only).
     pub fn to_dense(&self, n: usize, k: usize, m: usize) -> Vec<f64> {
         let mut d = vec![0.0; self.order * self.order];
-        for ((r, c), v) in global_jacobian_pattern(n, k, m).into_iter().zip(&self.values) {
+        for ((r, c), v) in global_jacobian_pattern(n, k, m)
+            .into_iter()
+            .zip(&self.values)
+        {
             d[r * self.order + c] += v;
         }
         d

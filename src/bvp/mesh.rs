@@ -116,10 +116,16 @@ pub(crate) fn estimate_errors<P: BvpProblem + ?Sized>(
         }
     }
     let bo = lay.bc_offset();
-    est.bc_residual = res[bo..bo + n + k].iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    est.bc_residual = res[bo..bo + n + k]
+        .iter()
+        .fold(0.0_f64, |a, v| a.max(v.abs()));
     est.max_error = est.errors.iter().fold(0.0_f64, |a, &v| a.max(v));
     est.max_residual = est.residuals.iter().fold(0.0_f64, |a, &v| a.max(v));
-    est.finite = est.errors.iter().chain(&est.residuals).all(|v| v.is_finite())
+    est.finite = est
+        .errors
+        .iter()
+        .chain(&est.residuals)
+        .all(|v| v.is_finite())
         && est.max_defect.is_finite()
         && est.bc_residual.is_finite();
     if !est.finite {
@@ -195,7 +201,10 @@ pub(crate) fn transfer_solution(col: &Collocation, u: &[f64], new_x: &[f64]) -> 
     let mut out = vec![0.0; new_lay.total()];
     let old_x = &col.x;
     let eval_at = |xq: f64, dst: &mut [f64]| {
-        let i = old_x.partition_point(|&v| v <= xq).saturating_sub(1).min(lay.m - 2);
+        let i = old_x
+            .partition_point(|&v| v <= xq)
+            .saturating_sub(1)
+            .min(lay.m - 2);
         let h = col.h[i];
         eval_collocation_polynomial(
             &col.tab,

@@ -128,7 +128,11 @@ impl Options {
             if value > 0.0 && value.is_finite() {
                 Ok(())
             } else {
-                Err(BvpError::InvalidOption { name, value, expected: "a finite number > 0" })
+                Err(BvpError::InvalidOption {
+                    name,
+                    value,
+                    expected: "a finite number > 0",
+                })
             }
         };
         positive("tol", self.tol)?;
@@ -179,7 +183,11 @@ impl Options {
         }
         if let Some(s) = &self.scale {
             if s.len() != n {
-                return Err(BvpError::DimensionMismatch { what: "options.scale", expected: n, found: s.len() });
+                return Err(BvpError::DimensionMismatch {
+                    what: "options.scale",
+                    expected: n,
+                    found: s.len(),
+                });
             }
             for &v in s {
                 positive("scale[j]", v)?;
