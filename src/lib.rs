@@ -10,6 +10,7 @@
 //! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov.
 
 pub mod bvp;
+pub mod continuation;
 pub mod ivp;
 pub mod model;
 pub mod suslov;

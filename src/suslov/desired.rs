@@ -551,3 +551,54 @@ mod tests {
         .is_err());
     }
 }
+
+/// The radial projection onto `E` of any [`DesiredPath`] (including trait objects), with exact
+/// derivatives: the inner path's jet is lifted to a third-order dual number and pushed through
+/// the projection, so `Ω̇, Ω̈, d³Ω/dt³` of the projection are exact to rounding.
+#[derive(Clone)]
+pub struct ProjectedPath {
+    /// The projected path.
+    pub inner: std::sync::Arc<dyn DesiredPath + Send + Sync>,
+    /// The target ellipsoid.
+    pub ellipsoid: EnergyEllipsoid,
+}
+
+impl DesiredPath for ProjectedPath {
+    fn jet(&self, t: f64) -> Jet {
+        let j = self.inner.jet(t);
+        let lift = |i: usize| Dual3::new(j.value[i], j.d1[i], j.d2[i], j.d3[i]);
+        let r = self.ellipsoid.project_generic([lift(0), lift(1), lift(2)]);
+        let pick = |f: fn(&Dual3<f64>) -> f64| Vector3::new(f(&r[0]), f(&r[1]), f(&r[2]));
+        Jet {
+            value: pick(|d| d.re),
+            d1: pick(|d| d.v1),
+            d2: pick(|d| d.v2),
+            d3: pick(|d| d.v3),
+        }
+    }
+}
+
+#[cfg(test)]
+mod projected_path_tests {
+    use super::*;
+
+    #[test]
+    fn projecting_a_trait_object_equals_the_generic_projection() {
+        let spiral = PaperSpiral::paper();
+        let e = spiral.ellipsoid().clone();
+        let generic = Projected::new(spiral.clone(), e.clone());
+        let dynamic = ProjectedPath {
+            inner: std::sync::Arc::new(spiral),
+            ellipsoid: e,
+        };
+        for &t in &[0.0, 1.3, 7.7, 9.995, 10.0, 10.02] {
+            let (a, b) = (generic.jet(t), dynamic.jet(t));
+            for (x, y) in [(a.value, b.value), (a.d1, b.d1), (a.d2, b.d2), (a.d3, b.d3)] {
+                assert!(
+                    (x - y).norm() <= 1e-9 * (1.0 + x.norm()),
+                    "t = {t}: {x} vs {y}"
+                );
+            }
+        }
+    }
+}

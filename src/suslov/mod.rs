@@ -45,7 +45,8 @@ pub mod reintegrate;
 pub mod singular;
 
 pub use desired::{
-    Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedSegment, Scalar, Spiral,
+    Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedPath, ProjectedSegment,
+    Scalar, Spiral,
 };
 pub use ellipsoid::{kinetic_energy, EnergyEllipsoid, Inertia};
 pub use equations::{suslov_multiplier, suslov_residual, suslov_rhs};

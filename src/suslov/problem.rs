@@ -220,7 +220,7 @@ impl SuslovProblem {
         }
         let e = self.ellipsoid();
         let mismatch = e.relative_mismatch(&self.omega_b);
-        if !(mismatch <= ENERGY_REL_TOL) {
+        if !(mismatch.abs() <= ENERGY_REL_TOL) {
             let projection = e
                 .project(&self.omega_b)
                 .map(|v| [v[0], v[1], v[2]])
