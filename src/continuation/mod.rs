@@ -198,7 +198,7 @@ where
             current.0 + dir * step
         };
         let problem = family(lambda);
-        let mut attempt = |secant: bool| -> Result<(StepRecord, Solution), bvp::BvpError> {
+        let attempt = |secant: bool| -> Result<(StepRecord, Solution), bvp::BvpError> {
             let guess = match (&previous, secant) {
                 (Some(prev), true) => predict_secant(prev, &current, lambda),
                 _ => Guess::from_solution(&current.1),

@@ -43,6 +43,7 @@ pub mod problem;
 pub mod properties;
 pub mod reintegrate;
 pub mod singular;
+pub mod solve;
 
 pub use desired::{
     Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedPath, ProjectedSegment,

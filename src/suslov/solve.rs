@@ -1,0 +1,567 @@
+//! Solving a [`SuslovProblem`]: the analytic start and the staged homotopy of paper section 5.2.
+//!
+//! 1. **Start** (section 5.1). Pick an admissible `Ω_p` (Properties 1–3 on `[a, b_p]`) and
+//!    build `y = [Ω_p, ξ_p, ξ̇_p, κ = 0]` with the generated `singular_control`; solve the BVP
+//!    with `β = β_m ≪ min(α, β, γ)`, `η = δ = 0` at fixed `T = b_p − a`.
+//!    - `γ > 0` and `Ω_d` admissible up to [`ADMISSIBLE_ENERGY_TOL`]: `Ω_p = [Ω_d]_∥` (the
+//!      radial projection of `Ω_d` onto `E`), start at the full `γ` (paper's third case).
+//!      For the paper's `Ω_d`, which leaves `E` by at most 8.9e-6 (relative energy) near
+//!      `t = b_d` because the sigmoid blends two points of `E`, this is the choice:
+//!      `|[Ω_d]_∥ − Ω_d| ≤ 1.7e-5`, far below what `β_m` changes.
+//!    - `γ > 0`, `Ω_d` further from admissible: `Ω_p = [Ω_d]_∥` if that satisfies
+//!      Properties 1 and 3, else the projected segment `Ω_a → Ω_b`; continue `γ` from 0
+//!      (paper's second case).
+//!    - `γ = 0`: `Ω_p` = projected segment, continue `γ` from 1 to 0 (paper's first case).
+//! 2. **β stage**: `β_m → β` (geometric), fixed `T`.
+//! 3. **η stage**: `0 → η`, fixed `T`.
+//! 4. **δ stage** (free terminal time only): `T` becomes the unknown parameter; `δ` goes from
+//!    `δ_c` (generated `delta_start`, eq. `delta_c_rbc`, which makes the free-time condition hold
+//!    at the current solution) to `δ`.
+//! 5. **Polish**: a final solve at the requested tolerance.
+//!
+//! Continuation steps run at `continuation_tol`; every stage's record is kept in
+//! [`SuslovSolution::stages`]. A failing stage returns [`SolveError::StageFailed`] with the last
+//! converged point (a partial result), the stage, the parameter value reached and the reason.
+
+use std::sync::Arc;
+
+use crate::bvp::{self, Guess, Solution};
+use crate::continuation::{self, StepRecord};
+use crate::model::generated as g;
+
+use super::desired::{DesiredPath, ProjectedPath, ProjectedSegment};
+use super::problem::{ProblemError, SuslovBvp, SuslovProblem, TerminalTime};
+use super::properties::check_properties;
+
+/// `Ω_d` counts as admissible (paper's third case) when its relative energy deviation from
+/// `E` stays below this and Properties 1 and 3 hold.
+pub const ADMISSIBLE_ENERGY_TOL: f64 = 1e-4;
+
+/// Options of [`solve`].
+#[derive(Debug, Clone)]
+pub struct SolveOptions {
+    /// Final BVP tolerance (paper: 1e-8).
+    pub tol: f64,
+    /// BVP tolerance during continuation.
+    pub continuation_tol: f64,
+    /// `β_m`; default `1e-2 · min(α, β, γ or 1)`.
+    pub beta_m: Option<f64>,
+    /// Intervals of the initial uniform mesh.
+    pub initial_intervals: usize,
+    /// Node cap of every BVP solve.
+    pub max_nodes: usize,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self {
+            tol: 1e-8,
+            continuation_tol: 1e-6,
+            beta_m: None,
+            initial_intervals: 200,
+            max_nodes: 20_000,
+        }
+    }
+}
+
+/// Which path the analytic start used, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StartChoice {
+    /// "projected desired path" or "projected segment".
+    pub omega_p: &'static str,
+    /// Paper case: 1 (`γ = 0`), 2 (`Ω_d` not admissible), 3 (`Ω_d` admissible).
+    pub case: u8,
+    /// `b_p`.
+    pub b_p: f64,
+    /// `β_m`.
+    pub beta_m: f64,
+    /// Max relative energy deviation of `Ω_d` from `E` on `[a, b_p]`.
+    pub desired_energy_deviation: f64,
+}
+
+/// One stage of the homotopy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageReport {
+    /// "start", "gamma", "beta", "eta", "delta" or "polish".
+    pub name: &'static str,
+    /// Start value of the continued parameter.
+    pub from: f64,
+    /// Target value.
+    pub to: f64,
+    /// Accepted continuation steps.
+    pub steps: usize,
+    /// Rejected attempts that were recovered from.
+    pub failures_recovered: usize,
+    /// Newton iterations of the stage.
+    pub newton_iterations: usize,
+    /// Mesh nodes at the end of the stage.
+    pub nodes: usize,
+    /// Wall time of the stage, seconds.
+    pub seconds: f64,
+}
+
+/// A solved Suslov problem.
+#[derive(Debug, Clone)]
+pub struct SuslovSolution {
+    /// The problem, with the terminal time found (for a free `b`).
+    pub problem: SuslovProblem,
+    /// The BVP solution on `s ∈ [0, 1]`.
+    pub bvp: Solution,
+    /// `T = b − a`.
+    pub t_span: f64,
+    /// The analytic start.
+    pub start: StartChoice,
+    /// The homotopy stages, in order.
+    pub stages: Vec<StageReport>,
+}
+
+impl SuslovSolution {
+    /// `b`.
+    pub fn terminal_time(&self) -> f64 {
+        self.problem.t0 + self.t_span
+    }
+
+    /// `y(t) = [Ω, ξ, ξ̇, κ]` at physical time `t ∈ [a, b]`.
+    pub fn state(&self, t: f64) -> [f64; 12] {
+        let mut y = [0.0; 12];
+        self.bvp
+            .eval_into((t - self.problem.t0) / self.t_span, &mut y);
+        y
+    }
+}
+
+/// Events reported while solving.
+#[derive(Debug, Clone)]
+pub enum Event<'a> {
+    /// A stage starts.
+    StageStarted {
+        /// Stage name.
+        name: &'static str,
+        /// From.
+        from: f64,
+        /// To.
+        to: f64,
+    },
+    /// A continuation step was attempted (its parameter is the stage's homotopy variable).
+    Step {
+        /// Stage name.
+        stage: &'static str,
+        /// The attempt.
+        record: &'a StepRecord,
+    },
+    /// A stage finished.
+    StageFinished(&'a StageReport),
+}
+
+/// Why [`solve`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum SolveError {
+    /// The problem is invalid.
+    #[error("invalid problem: {0}")]
+    Invalid(#[from] ProblemError),
+    /// No admissible analytic start could be built.
+    #[error("cannot build the analytic start: {0}")]
+    Start(String),
+    /// A stage did not reach its target; `partial` holds the last converged point.
+    #[error("stage '{stage}' stopped at {parameter} = {reached} (target {target}): {reason}")]
+    StageFailed {
+        /// Stage name.
+        stage: &'static str,
+        /// Continued parameter name.
+        parameter: &'static str,
+        /// Last converged value.
+        reached: f64,
+        /// Target value.
+        target: f64,
+        /// Why.
+        reason: String,
+        /// The last converged solution (its problem carries the weights reached).
+        partial: Box<SuslovSolution>,
+    },
+    /// Invalid input reached the BVP solver (a bug in this layer).
+    #[error("BVP solver rejected its input: {0}")]
+    Bvp(#[from] bvp::BvpError),
+}
+
+/// The working state of the homotopy: constants, mode and current solution.
+struct Homotopy<'p> {
+    problem: &'p SuslovProblem,
+    params: [f64; 8],
+    fixed_span: Option<f64>,
+    t_span: f64,
+    solution: Solution,
+    start: StartChoice,
+    stages: Vec<StageReport>,
+}
+
+impl<'p> Homotopy<'p> {
+    fn bvp_with(&self, params: [f64; 8], fixed_span: Option<f64>) -> SuslovBvp<'p> {
+        SuslovBvp {
+            params,
+            omega_a: self.problem.omega_a.into(),
+            omega_b: self.problem.omega_b.into(),
+            t0: self.problem.t0,
+            fixed_span,
+            desired: &*self.problem.desired,
+        }
+    }
+
+    fn snapshot(&self) -> SuslovSolution {
+        let mut problem = self.problem.clone();
+        let p = self.params;
+        problem.weights.alpha = p[3];
+        problem.weights.beta = p[4];
+        problem.weights.gamma = p[5];
+        problem.weights.eta = p[6];
+        problem.weights.delta = p[7];
+        if self.fixed_span.is_none() {
+            problem.terminal = TerminalTime::Free {
+                guess: problem.t0 + self.t_span,
+            };
+        }
+        SuslovSolution {
+            problem,
+            bvp: self.solution.clone(),
+            t_span: self.t_span,
+            start: self.start.clone(),
+            stages: self.stages.clone(),
+        }
+    }
+
+    /// Continue parameter `index` of the constants along `value(λ)`, `λ ∈ [0, 1]`.
+    #[allow(clippy::too_many_arguments)]
+    fn stage(
+        &mut self,
+        name: &'static str,
+        index: usize,
+        from: f64,
+        to: f64,
+        value: &dyn Fn(f64) -> f64,
+        opts: &continuation::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), SolveError> {
+        let clock = std::time::Instant::now();
+        events(&Event::StageStarted { name, from, to });
+        let base = self.params;
+        let fixed_span = self.fixed_span;
+        let family = |lambda: f64| {
+            let mut p = base;
+            p[index] = value(lambda);
+            self.bvp_with(p, fixed_span)
+        };
+        let outcome =
+            continuation::natural(family, 0.0, 1.0, &self.solution, opts, &mut |record| {
+                events(&Event::Step {
+                    stage: name,
+                    record,
+                })
+            })?;
+        self.params[index] = value(outcome.lambda);
+        self.solution = outcome.solution.clone();
+        if self.fixed_span.is_none() {
+            self.t_span = self.solution.p[0];
+        }
+        let report = StageReport {
+            name,
+            from,
+            to,
+            steps: outcome.steps(),
+            failures_recovered: outcome.failures(),
+            newton_iterations: outcome.newton_iterations(),
+            nodes: self.solution.num_nodes(),
+            seconds: clock.elapsed().as_secs_f64(),
+        };
+        events(&Event::StageFinished(&report));
+        self.stages.push(report);
+        if !outcome.status.is_success() {
+            return Err(SolveError::StageFailed {
+                stage: name,
+                parameter: crate::model::generated::PARAM_NAMES[index],
+                reached: value(outcome.lambda),
+                target: to,
+                reason: outcome.status.to_string(),
+                partial: Box::new(self.snapshot()),
+            });
+        }
+        Ok(())
+    }
+
+    /// One BVP solve with the current constants from `guess`; a failure is a stage failure.
+    fn single_solve(
+        &mut self,
+        name: &'static str,
+        guess: &Guess,
+        options: &bvp::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), SolveError> {
+        let clock = std::time::Instant::now();
+        events(&Event::StageStarted {
+            name,
+            from: 0.0,
+            to: 0.0,
+        });
+        let problem = self.bvp_with(self.params, self.fixed_span);
+        let sol = bvp::solve(&problem, guess, options)?;
+        let report = StageReport {
+            name,
+            from: 0.0,
+            to: 0.0,
+            steps: usize::from(sol.is_success()),
+            failures_recovered: 0,
+            newton_iterations: sol.stats.newton_iterations,
+            nodes: sol.num_nodes(),
+            seconds: clock.elapsed().as_secs_f64(),
+        };
+        events(&Event::StageFinished(&report));
+        self.stages.push(report);
+        if !sol.is_success() {
+            let reason = format!("{:?}: {}", sol.status, sol.status.message());
+            return Err(SolveError::StageFailed {
+                stage: name,
+                parameter: "-",
+                reached: f64::NAN,
+                target: f64::NAN,
+                reason,
+                partial: Box::new(self.snapshot()),
+            });
+        }
+        self.solution = sol;
+        if self.fixed_span.is_none() {
+            self.t_span = self.solution.p[0];
+        }
+        Ok(())
+    }
+}
+
+/// Choose `Ω_p` and the paper case (section 5.2).
+fn choose_start(
+    problem: &SuslovProblem,
+    b_p: f64,
+    beta_m: f64,
+) -> Result<(Arc<dyn DesiredPath + Send + Sync>, StartChoice), SolveError> {
+    let a = problem.t0;
+    let e = problem.ellipsoid();
+    let check = |path: &dyn DesiredPath| {
+        check_properties(
+            path,
+            &problem.inertia,
+            &problem.omega_a,
+            &problem.omega_b,
+            (a, b_p),
+            4001,
+        )
+        .map_err(|err| SolveError::Start(err.to_string()))
+    };
+    let scale = problem.omega_a.norm();
+    let desired = check(&*problem.desired)?;
+    let projected: Arc<dyn DesiredPath + Send + Sync> = Arc::new(ProjectedPath {
+        inner: problem.desired.clone(),
+        ellipsoid: e.clone(),
+    });
+    let proj = check(&*projected)?;
+    let admissible_ends = |r: &super::properties::PropertyReport| {
+        r.start_error <= 1e-9 * scale
+            && r.end_error <= 1e-9 * scale
+            && r.min_euler_defect > 1e-6 * scale * scale
+    };
+    let segment = || -> Result<Arc<dyn DesiredPath + Send + Sync>, SolveError> {
+        let seg = ProjectedSegment::new(problem.inertia, problem.omega_a, problem.omega_b, a, b_p)
+            .map_err(|err| SolveError::Start(err.to_string()))?;
+        let r = check(&seg)?;
+        if !admissible_ends(&r) {
+            return Err(SolveError::Start(format!(
+                "the projected segment from omega_a to omega_b violates Property 3 \
+                 (min |I Om' - (I Om) x Om| = {:e} at t = {}); give a desired path instead",
+                r.min_euler_defect, r.t_min_euler_defect
+            )));
+        }
+        Ok(Arc::new(seg))
+    };
+    let choice = |omega_p, case| StartChoice {
+        omega_p,
+        case,
+        b_p,
+        beta_m,
+        desired_energy_deviation: desired.max_rel_energy_deviation,
+    };
+    if problem.weights.gamma > 0.0 {
+        if admissible_ends(&proj) {
+            let case = if desired.max_rel_energy_deviation <= ADMISSIBLE_ENERGY_TOL
+                && admissible_ends(&desired)
+            {
+                3
+            } else {
+                2
+            };
+            return Ok((projected, choice("projected desired path", case)));
+        }
+        return Ok((segment()?, choice("projected segment", 2)));
+    }
+    Ok((segment()?, choice("projected segment", 1)))
+}
+
+/// Solve `problem` from the analytic singular solution through the staged homotopy.
+pub fn solve(
+    problem: &SuslovProblem,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<SuslovSolution, SolveError> {
+    problem.validate()?;
+    let w = problem.weights;
+    let b_p = problem.terminal.initial();
+    let t_p = b_p - problem.t0;
+    let beta_m = options.beta_m.unwrap_or_else(|| {
+        let g = if w.gamma > 0.0 { w.gamma } else { 1.0 };
+        1e-2 * w.alpha.min(w.beta).min(g)
+    });
+    let (omega_p, start) = choose_start(problem, b_p, beta_m)?;
+
+    // Initial guess: the singular solution on a uniform mesh (stages sampled too).
+    let mut params = problem.params();
+    params[4] = beta_m;
+    params[6] = 0.0;
+    params[7] = 0.0;
+    params[5] = match start.case {
+        1 => 1.0,
+        2 => 0.0,
+        _ => w.gamma,
+    };
+    let m = options.initial_intervals.max(2);
+    let x: Vec<f64> = (0..=m).map(|i| i as f64 / m as f64).collect();
+    let mut bad = None;
+    let guess = Guess::from_fn(&x, 12, vec![], |s, out| {
+        let t = problem.t0 + s * t_p;
+        let j = omega_p.jet(t);
+        let om = [
+            j.value[0], j.value[1], j.value[2], j.d1[0], j.d1[1], j.d1[2], j.d2[0], j.d2[1],
+            j.d2[2],
+        ];
+        let mut xi = [0.0; 6];
+        g::singular_control(&om, &params, &mut xi);
+        if xi.iter().any(|v| !v.is_finite()) && bad.is_none() {
+            bad = Some(t);
+        }
+        out[..3].copy_from_slice(&om[..3]);
+        out[3..9].copy_from_slice(&xi);
+        out[9..].fill(0.0);
+    });
+    if let Some(t) = bad {
+        return Err(SolveError::Start(format!(
+            "the singular control xi_p is undefined at t = {t} (Property 3 fails there)"
+        )));
+    }
+    let bvp_opts = |tol: f64| bvp::Options {
+        tol,
+        max_nodes: options.max_nodes,
+        ..Default::default()
+    };
+    let cont = continuation::Options {
+        bvp: bvp_opts(options.continuation_tol),
+        initial_step: Some(0.2),
+        ..Default::default()
+    };
+    let clock = std::time::Instant::now();
+    events(&Event::StageStarted {
+        name: "start",
+        from: beta_m,
+        to: beta_m,
+    });
+    let start_bvp = SuslovBvp {
+        params,
+        omega_a: problem.omega_a.into(),
+        omega_b: problem.omega_b.into(),
+        t0: problem.t0,
+        fixed_span: Some(t_p),
+        desired: &*problem.desired,
+    };
+    let first = bvp::solve(&start_bvp, &guess, &bvp_opts(options.continuation_tol))?;
+    if !first.is_success() {
+        return Err(SolveError::Start(format!(
+            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
+             ({:?}: {}); try a smaller or larger beta_m, or more initial intervals",
+            first.status,
+            first.status.message()
+        )));
+    }
+    let report = StageReport {
+        name: "start",
+        from: beta_m,
+        to: beta_m,
+        steps: 1,
+        failures_recovered: 0,
+        newton_iterations: first.stats.newton_iterations,
+        nodes: first.num_nodes(),
+        seconds: clock.elapsed().as_secs_f64(),
+    };
+    events(&Event::StageFinished(&report));
+    let mut h = Homotopy {
+        problem,
+        params,
+        fixed_span: Some(t_p),
+        t_span: t_p,
+        solution: first,
+        start,
+        stages: vec![report],
+    };
+
+    match h.start.case {
+        1 => h.stage("gamma", 5, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?,
+        2 => {
+            let gamma = w.gamma;
+            h.stage("gamma", 5, 0.0, gamma, &move |l| l * gamma, &cont, events)?
+        }
+        _ => {}
+    }
+    if w.beta != beta_m {
+        let (lo, hi) = (beta_m.ln(), w.beta.ln());
+        h.stage(
+            "beta",
+            4,
+            beta_m,
+            w.beta,
+            &move |l| (lo + l * (hi - lo)).exp(),
+            &cont,
+            events,
+        )?;
+        h.params[4] = w.beta;
+    }
+    if w.eta > 0.0 {
+        let eta = w.eta;
+        h.stage("eta", 6, 0.0, eta, &move |l| l * eta, &cont, events)?;
+    }
+    match problem.terminal {
+        TerminalTime::Fixed(_) => {
+            if w.delta != 0.0 {
+                h.params[7] = w.delta; // δ only shifts the cost at fixed time
+            }
+        }
+        TerminalTime::Free { .. } => {
+            let yb: [f64; 12] = h.solution.eval(1.0).try_into().expect("n = 12");
+            let bvp0 = h.bvp_with(h.params, h.fixed_span);
+            let wb = bvp0.desired_at(problem.t0 + t_p);
+            let delta_c = g::delta_start(&yb, &h.params, &wb);
+            h.params[7] = delta_c;
+            h.fixed_span = None;
+            let guess = Guess::from_solution(&h.solution).with_parameters(vec![t_p]);
+            h.single_solve(
+                "free-time start",
+                &guess,
+                &bvp_opts(options.continuation_tol),
+                events,
+            )?;
+            let delta = w.delta;
+            h.stage(
+                "delta",
+                7,
+                delta_c,
+                delta,
+                &move |l| delta_c + l * (delta - delta_c),
+                &cont,
+                events,
+            )?;
+        }
+    }
+    let guess = Guess::from_solution(&h.solution);
+    h.single_solve("polish", &guess, &bvp_opts(options.tol), events)?;
+    Ok(h.snapshot())
+}
