@@ -124,9 +124,6 @@ use problem::Evaluator;
 /// A Jacobian with `cond_1 * eps` above this is numerically singular.
 const NUMERICALLY_SINGULAR: f64 = 1e-3;
 
-/// Consecutive Newton failures (each followed by mesh halving) before giving up.
-const MAX_NEWTON_FAILURES: usize = 4;
-
 /// Check the problem dimensions, the guess and the options.
 fn validate_input<P: BvpProblem + ?Sized>(
     problem: &P,
@@ -353,7 +350,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             next_x = Some(adapt_mesh(&x, &est.errors, order));
         } else {
             failures += 1;
-            if failures > MAX_NEWTON_FAILURES {
+            if failures > options.max_newton_failures {
                 status = Some(Status::NoConvergence);
             } else {
                 next_x = Some(halve_mesh(&x));

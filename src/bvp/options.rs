@@ -64,6 +64,11 @@ pub struct Options {
     pub max_newton_iter: usize,
     /// Maximum number of mesh passes (solve, estimate, adapt) (default: 40).
     pub max_mesh_passes: usize,
+    /// Newton failures tolerated, each followed by a uniform halving of the mesh, before
+    /// [`NoConvergence`](super::Status::NoConvergence) (default: 4). Continuation sets it low:
+    /// there a failure means "step too large", which a smaller step fixes more cheaply than
+    /// a finer mesh.
+    pub max_newton_failures: usize,
     /// Newton stops when the scaled max-norm of the (simplified) correction is below this
     /// fraction of the tolerance weights `w_j` (default: 1e-2).
     pub newton_tol: f64,
@@ -100,6 +105,7 @@ impl Default for Options {
             max_nodes: 10_000,
             max_newton_iter: 8,
             max_mesh_passes: 40,
+            max_newton_failures: 4,
             newton_tol: 1e-2,
             min_damping: 1e-4,
             reuse_jacobian_below: 0.25,

@@ -456,7 +456,11 @@ pub fn solve(
         ..Default::default()
     };
     let cont = continuation::Options {
-        bvp: bvp_opts(options.continuation_tol),
+        bvp: bvp::Options {
+            max_newton_failures: 0,
+            max_newton_iter: 15,
+            ..bvp_opts(options.continuation_tol)
+        },
         initial_step: Some(0.2),
         ..Default::default()
     };
