@@ -28,13 +28,21 @@ fn main() {
         Event::StageFinished(r) => eprintln!("  done {r:?}"),
     });
     match res {
-        Ok(sol) => println!(
-            "eta={eta}: b = {:.6}, nodes = {}, in {:?}; start {:?}",
-            sol.terminal_time(),
-            sol.bvp.num_nodes(),
-            clock.elapsed(),
-            sol.start
-        ),
+        Ok(sol) => {
+            println!(
+                "eta={eta}: b = {:.6}, nodes = {}, in {:?}; start {:?}",
+                sol.terminal_time(),
+                sol.bvp.num_nodes(),
+                clock.elapsed(),
+                sol.start
+            );
+            let c = std::time::Instant::now();
+            let d = suslov::suslov::diagnostics::diagnose(&sol);
+            println!("{d:#?} in {:?}", c.elapsed());
+            let c = std::time::Instant::now();
+            let r = suslov::suslov::diagnostics::reintegrate_check(&sol);
+            println!("{r:#?} in {:?}", c.elapsed());
+        }
         Err(e) => println!("FAILED: {e}"),
     }
 }

@@ -37,6 +37,7 @@
 //!   P1–P3 (min `|ξ̃|` = 0.64).
 
 pub mod desired;
+pub mod diagnostics;
 pub mod ellipsoid;
 pub mod equations;
 pub mod problem;

@@ -1,0 +1,226 @@
+//! Verify, don't trust: a-posteriori diagnostics of a [`SuslovSolution`].
+//!
+//! Everything here is computed from the solution's dense output on a fine grid (every mesh
+//! interval subdivided [`FINE_PER_INTERVAL`] times), independently of the solver's own
+//! error estimate:
+//! - the cost `∫ C dt` by 5-point Gauss–Legendre per mesh interval (exact for degree 9,
+//!   above the order of the collocation interpolant);
+//! - the constraint `max |⟨Ω, ξ⟩|`, `min/max |ξ|`, the kinetic-energy drift, `|Ω(b) − Ω_b|`;
+//! - the ODE residual of the interpolant, `max |y'(s) − T f(y(s))|`;
+//! - the boundary residuals (including the free-time condition);
+//! - the re-integration of Suslov's pure equations as an initial value problem (Verner 9(8),
+//!   rtol = atol = 1e-12) driven by the computed `ξ(t), ξ̇(t)`, compared with the BVP's `Ω(t)`;
+//! - the paper's stability experiment (section 5.3, R2Q4): `ξ̇` perturbed, `Ω` re-integrated.
+
+use nalgebra::Vector3;
+
+use crate::bvp::BvpProblem;
+use crate::ivp::IvpOptions;
+use crate::model::generated as g;
+
+use super::problem::SuslovBvp;
+use super::reintegrate::{compare, reintegrate, stability_experiment, Perturbation};
+use super::solve::SuslovSolution;
+use super::SuslovError;
+
+/// Fine-grid points per mesh interval.
+pub const FINE_PER_INTERVAL: usize = 10;
+
+/// Gauss–Legendre nodes and weights on [0, 1], 5 points.
+const GAUSS5: [(f64, f64); 5] = [
+    (0.046_910_077_030_668_0, 0.118_463_442_528_094_5),
+    (0.230_765_344_947_158_5, 0.239_314_335_249_683_2),
+    (0.5, 0.284_444_444_444_444_4),
+    (0.769_234_655_052_841_5, 0.239_314_335_249_683_2),
+    (0.953_089_922_969_332_0, 0.118_463_442_528_094_5),
+];
+
+/// The results of [`diagnose`].
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Diagnostics {
+    /// `b`.
+    pub terminal_time: f64,
+    /// `∫_a^b C dt`.
+    pub cost: f64,
+    /// `max |⟨Ω, ξ⟩|` on the fine grid.
+    pub max_abs_constraint: f64,
+    /// `min |ξ|`.
+    pub xi_norm_min: f64,
+    /// `max |ξ|`.
+    pub xi_norm_max: f64,
+    /// `max |T(t) − T(a)|`, `T = ½⟨IΩ, Ω⟩`.
+    pub energy_drift: f64,
+    /// `|Ω(b) − Ω_b|`.
+    pub omega_b_error: f64,
+    /// `max |y'(s) − T f(y(s))|` of the interpolant on the fine grid (absolute).
+    pub max_residual: f64,
+    /// The same, each component divided by `1 + |T f|`.
+    pub max_relative_residual: f64,
+    /// `max |g(y(a), y(b), T)|` (boundary conditions, incl. free time).
+    pub bc_residual: f64,
+    /// Fine-grid points used.
+    pub grid_points: usize,
+}
+
+/// The a-posteriori re-integration and the stability experiment.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct Reintegration {
+    /// `max |Ω_ivp(t) − Ω_bvp(t)|` at the fine-grid times.
+    pub max_abs_diff: f64,
+    /// Where.
+    pub t_max_abs_diff: f64,
+    /// Relative energy drift along the re-integration.
+    pub max_rel_energy_drift: f64,
+    /// Stability experiment: `(description, max |Ω_pert − Ω|)`.
+    pub stability: Vec<(String, f64)>,
+}
+
+/// Fine grid on `s ∈ [0, 1]`: every mesh interval subdivided `per` times.
+pub fn fine_grid(x: &[f64], per: usize) -> Vec<f64> {
+    let mut s = Vec::with_capacity((x.len() - 1) * per + 1);
+    for w in x.windows(2) {
+        for k in 0..per {
+            s.push(w[0] + (w[1] - w[0]) * k as f64 / per as f64);
+        }
+    }
+    s.push(*x.last().expect("mesh has nodes"));
+    s
+}
+
+/// Diagnostics of `sol` (see the module docs).
+pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
+    let problem = &sol.problem;
+    let bvp = SuslovBvp::new(problem);
+    let params = problem.params();
+    let t_span = sol.t_span;
+    let p_vec = if bvp.fixed_span.is_none() {
+        vec![t_span]
+    } else {
+        vec![]
+    };
+    let bvp = SuslovBvp {
+        fixed_span: Some(t_span),
+        ..bvp
+    };
+    let inertia = problem.inertia.diag();
+    let kinetic = |om: &[f64]| 0.5 * (0..3).map(|i| inertia[i] * om[i] * om[i]).sum::<f64>();
+    let t_a = kinetic(problem.omega_a.as_slice());
+    let x = &sol.bvp.x;
+
+    let mut cost = 0.0;
+    for w in x.windows(2) {
+        let h = w[1] - w[0];
+        for (node, weight) in GAUSS5 {
+            let s = w[0] + node * h;
+            let y: [f64; 12] = sol.bvp.eval(s).try_into().expect("n = 12");
+            let wd = bvp.desired_at(problem.t0 + s * t_span);
+            cost += weight * h * t_span * g::cost_integrand(&y, &params, &wd);
+        }
+    }
+
+    let grid = fine_grid(x, FINE_PER_INTERVAL);
+    let mut d = Diagnostics {
+        terminal_time: sol.terminal_time(),
+        cost,
+        max_abs_constraint: 0.0,
+        xi_norm_min: f64::INFINITY,
+        xi_norm_max: 0.0,
+        energy_drift: 0.0,
+        omega_b_error: 0.0,
+        max_residual: 0.0,
+        max_relative_residual: 0.0,
+        bc_residual: 0.0,
+        grid_points: grid.len(),
+    };
+    let mut y = [0.0; 12];
+    let mut yp = [0.0; 12];
+    let mut f = [0.0; 12];
+    for &s in &grid {
+        sol.bvp.eval_into(s, &mut y);
+        sol.bvp.eval_derivative_into(s, &mut yp);
+        bvp.f(s, &y, &[], &mut f);
+        let c = (0..3).map(|i| y[i] * y[3 + i]).sum::<f64>();
+        d.max_abs_constraint = d.max_abs_constraint.max(c.abs());
+        let xn = (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]).sqrt();
+        d.xi_norm_min = d.xi_norm_min.min(xn);
+        d.xi_norm_max = d.xi_norm_max.max(xn);
+        d.energy_drift = d.energy_drift.max((kinetic(&y[..3]) - t_a).abs());
+        for i in 0..12 {
+            let r = (yp[i] - f[i]).abs();
+            d.max_residual = d.max_residual.max(r);
+            d.max_relative_residual = d.max_relative_residual.max(r / (1.0 + f[i].abs()));
+        }
+    }
+    let yb = sol.bvp.eval(1.0);
+    d.omega_b_error = (Vector3::new(yb[0], yb[1], yb[2]) - problem.omega_b).norm();
+    let full = SuslovBvp::new(problem);
+    let mut res = vec![0.0; 12 + full.k()];
+    full.bc(&sol.bvp.eval(0.0), &yb, &p_vec[..full.k()], &mut res);
+    d.bc_residual = res.iter().fold(0.0, |m, v| m.max(v.abs()));
+    d
+}
+
+/// Re-integrate Suslov's pure equations with the computed control and run the paper's
+/// stability experiment (perturbed `ξ̇`: relative modulation `eps sin(3t)` with eps = 1e-3,
+/// and an additive `1e-3` along `(1,1,1)/√3`).
+pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let control = |t: f64| -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> {
+        let y = sol.state(t.clamp(a, b));
+        Ok((
+            Vector3::new(y[3], y[4], y[5]),
+            Vector3::new(y[6], y[7], y[8]),
+        ))
+    };
+    let grid = fine_grid(&sol.bvp.x, 2);
+    let times: Vec<f64> = grid.iter().map(|s| a + s * sol.t_span).collect();
+    let options = IvpOptions::default();
+    let run = reintegrate(
+        &problem.inertia,
+        &problem.omega_a,
+        (a, b),
+        &control,
+        &times,
+        &options,
+    )?;
+    let reference: Vec<Vector3<f64>> = times
+        .iter()
+        .map(|&t| {
+            let y = sol.state(t);
+            Vector3::new(y[0], y[1], y[2])
+        })
+        .collect();
+    let cmp = compare(&run, &reference, &problem.ellipsoid())?;
+    let mut stability = Vec::new();
+    for (label, perturbation) in [
+        (
+            "xi_dot * (1 + 1e-3 sin 3t)",
+            Perturbation::Modulated { eps: 1e-3, k: 3.0 },
+        ),
+        (
+            "xi_dot + 1e-3 (1,1,1)/sqrt(3)",
+            Perturbation::Additive {
+                eps: 1e-3,
+                direction: Vector3::new(1.0, 1.0, 1.0),
+            },
+        ),
+    ] {
+        let rep = stability_experiment(
+            &problem.inertia,
+            &problem.omega_a,
+            (a, b),
+            &control,
+            perturbation,
+            &times,
+            &options,
+        )?;
+        stability.push((label.to_string(), rep.max_deviation));
+    }
+    Ok(Reintegration {
+        max_abs_diff: cmp.max_abs_diff,
+        t_max_abs_diff: cmp.t_max_abs_diff,
+        max_rel_energy_drift: cmp.max_rel_energy_drift,
+        stability,
+    })
+}
