@@ -40,6 +40,7 @@ pub mod desired;
 pub mod diagnostics;
 pub mod ellipsoid;
 pub mod equations;
+pub mod paper;
 pub mod problem;
 pub mod properties;
 pub mod reintegrate;
