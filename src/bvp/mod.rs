@@ -276,7 +276,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         }
         let newton_ok = outcome == NewtonOutcome::Converged;
         stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), n + k);
-        stats.condition_estimate = sys.condition_estimate(n, k, x.len());
+        stats.condition_estimate = sys.condition_estimate();
         let well_posed = stats.bc_condition * options.tol <= options.conditioning_limit
             && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR;
         let accurate = newton_ok && est.max_error <= 1.0 && est.max_defect <= 1.0;
