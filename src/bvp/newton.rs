@@ -72,7 +72,7 @@ pub(crate) fn scaled_norms(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol
 }
 
 /// `out = -J^{-1} res` with the current factorisations (condense, global solve, expand).
-fn compute_correction(col: &mut Collocation, sys: &GlobalSystem, res: &[f64], out: &mut [f64]) -> bool {
+pub(crate) fn compute_correction(col: &mut Collocation, sys: &GlobalSystem, res: &[f64], out: &mut [f64]) -> bool {
     let g = col.lay.global();
     col.reduce_residual(res, &mut out[..g]);
     if !sys.solve_in_place(&mut out[..g]) {
