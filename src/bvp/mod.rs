@@ -193,6 +193,16 @@ fn initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
     u
 }
 
+/// Fill `stats.bc_condition` and `stats.condition_estimate` from the last factorisation and
+/// return whether the problem counts as well posed at the requested tolerance (see
+/// [`Options::conditioning_limit`]).
+fn estimate_conditioning(sys: &GlobalSystem, col: &Collocation, options: &Options, stats: &mut Stats) -> bool {
+    stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), col.lay.n + col.lay.k);
+    stats.condition_estimate = sys.condition_estimate();
+    stats.bc_condition * options.tol <= options.conditioning_limit
+        && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR
+}
+
 /// Package the iterate `u` on the mesh of `col` as a [`Solution`].
 fn build_solution<P: BvpProblem + ?Sized>(
     ev: &Evaluator<P>,
@@ -268,18 +278,25 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         let finite = col.evaluate_residual(&ev, &u, &mut res);
         let est = if finite { estimate_errors(&ev, &col, &u, &res, options) } else { ErrorEstimate::default() };
         let finish = |status, est, stats, col: &mut Collocation| Ok(build_solution(&ev, col, &u, est, stats, status));
-        match outcome {
-            NewtonOutcome::Singular => return finish(Status::SingularJacobian, est, stats, &mut col),
-            NewtonOutcome::NonFinite => return finish(Status::NonFinite, est, stats, &mut col),
-            _ if !finite || !est.finite => return finish(Status::NonFinite, est, stats, &mut col),
-            _ => {}
+        let early = match outcome {
+            NewtonOutcome::Singular => Some(Status::SingularJacobian),
+            NewtonOutcome::NonFinite => Some(Status::NonFinite),
+            _ if !finite || !est.finite => Some(Status::NonFinite),
+            _ => None,
+        };
+        if let Some(status) = early {
+            estimate_conditioning(&sys, &col, options, &mut stats);
+            return finish(status, est, stats, &mut col);
         }
         let newton_ok = outcome == NewtonOutcome::Converged;
-        stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), n + k);
-        stats.condition_estimate = sys.condition_estimate();
-        let well_posed = stats.bc_condition * options.tol <= options.conditioning_limit
-            && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR;
         let accurate = newton_ok && est.max_error <= 1.0 && est.max_defect <= 1.0;
+        // Conditioning costs 2(n+k) + ~10 solves: only for candidates and final reports.
+        let mut conditioned = false;
+        let mut well_posed = true;
+        if accurate {
+            well_posed = estimate_conditioning(&sys, &col, options, &mut stats);
+            conditioned = true;
+        }
         let mut next_x = None;
         let mut status = None;
         if accurate && !well_posed {
@@ -324,6 +341,9 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             },
         });
         if let Some(status) = status {
+            if !conditioned {
+                estimate_conditioning(&sys, &col, options, &mut stats);
+            }
             return finish(status, est, stats, &mut col);
         }
         let nx = next_x.expect("either a status or a next mesh is set");
