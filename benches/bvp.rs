@@ -37,8 +37,13 @@ fn coarse() -> Vec<f64> {
 
 fn bench_problem<P: Exact>(name: &str, prob: &P, guess: &Guess) {
     for tol in [1e-6, 1e-8] {
-        let opts = Options { tol, ..Options::default() };
-        let (t, sol) = median_time(Duration::from_millis(400), || solve(prob, guess, &opts).unwrap());
+        let opts = Options {
+            tol,
+            ..Options::default()
+        };
+        let (t, sol) = median_time(Duration::from_millis(400), || {
+            solve(prob, guess, &opts).unwrap()
+        });
         let mut err = node_error(prob, &sol).max(dense_error(prob, &sol, 2000));
         for (pv, pe) in sol.p.iter().zip(prob.exact_p()) {
             err = err.max((pv - pe).abs() / (1.0 + pe.abs()));
@@ -69,7 +74,8 @@ impl BvpProblem for Oscillators {
             let left = if j > 0 { y[2 * j - 2] } else { 0.0 };
             let right = if j < 5 { y[2 * j + 2] } else { 0.0 };
             dy[2 * j] = y[2 * j + 1];
-            dy[2 * j + 1] = -w * w * y[2 * j] + 0.1 * (left - 2.0 * y[2 * j] + right) + (j as f64 * x).sin();
+            dy[2 * j + 1] =
+                -w * w * y[2 * j] + 0.1 * (left - 2.0 * y[2 * j] + right) + (j as f64 * x).sin();
         }
     }
     fn jac(&self, _x: f64, _y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
@@ -93,7 +99,15 @@ impl BvpProblem for Oscillators {
             r[6 + j] = yb[2 * j];
         }
     }
-    fn bc_jac(&self, _ya: &[f64], _yb: &[f64], _p: &[f64], dya: &mut [f64], dyb: &mut [f64], _dp: &mut [f64]) -> bool {
+    fn bc_jac(
+        &self,
+        _ya: &[f64],
+        _yb: &[f64],
+        _p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        _dp: &mut [f64],
+    ) -> bool {
         dya.fill(0.0);
         dyb.fill(0.0);
         for j in 0..6 {
@@ -108,8 +122,14 @@ fn bench_scaling<P: BvpProblem>(name: &str, prob: &P) {
     for intervals in [100, 1_000, 10_000] {
         let x = uniform(0.0, 1.0, intervals);
         let guess = Guess::from_values(x.clone(), vec![0.0; x.len() * prob.n()], vec![]);
-        let opts = Options { adapt_mesh: false, tol: 1e-6, ..Options::default() };
-        let (t, sol) = median_time(Duration::from_millis(1500), || solve(prob, &guess, &opts).unwrap());
+        let opts = Options {
+            adapt_mesh: false,
+            tol: 1e-6,
+            ..Options::default()
+        };
+        let (t, sol) = median_time(Duration::from_millis(1500), || {
+            solve(prob, &guess, &opts).unwrap()
+        });
         println!(
             "| {name:<14} | {:>6} | {intervals:>7} | {:>10.3} | {:>8.3} | {:>6} | {:>5} | {:?} |",
             prob.n(),
@@ -129,21 +149,31 @@ fn main() {
     println!("|------------------------|-------|------------|--------|--------|-------|----------|----------|--------|");
     let zero = Guess::from_values(coarse(), vec![0.0; 22], vec![]);
     bench_problem("linear", &Linear, &zero);
-    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[4.0 - 3.0 * x, -3.0]));
+    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+        o.copy_from_slice(&[4.0 - 3.0 * x, -3.0])
+    });
     bench_problem("nonlinear y''=1.5y^2", &Quadratic, &g);
-    let g = Guess::from_fn(&coarse(), 2, vec![3.0], |x, o| o.copy_from_slice(&[(3.0 * x).sin(), 3.0 * (3.0 * x).cos()]));
+    let g = Guess::from_fn(&coarse(), 2, vec![3.0], |x, o| {
+        o.copy_from_slice(&[(3.0 * x).sin(), 3.0 * (3.0 * x).cos()])
+    });
     bench_problem("sturm-liouville (k=1)", &SturmLiouville, &g);
     let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[x, 1.0]));
     bench_problem("boundary layer 1e-3", &BoundaryLayer { eps: 1e-3 }, &g);
     bench_problem("bratu lower", &Bratu::new(1.0, 1.0), &zero);
     let g = Guess::from_fn(&coarse(), 2, vec![], |_, o| o.copy_from_slice(&[3.0, 0.0]));
     bench_problem("bratu upper", &Bratu::new(1.0, 10.0), &g);
-    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[2.0 * x - 1.0, 2.0]));
+    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+        o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
+    });
     bench_problem("tanh layer w=0.01", &InteriorLayer { w: 0.01 }, &g);
 
     println!("\n## Scaling: one Newton solve of a linear problem on a fixed uniform mesh\n");
-    println!("| problem        | n      | N       | median ms  | us/N     | Newton | LUs   | status |");
-    println!("|----------------|--------|---------|------------|----------|--------|-------|--------|");
+    println!(
+        "| problem        | n      | N       | median ms  | us/N     | Newton | LUs   | status |"
+    );
+    println!(
+        "|----------------|--------|---------|------------|----------|--------|-------|--------|"
+    );
     bench_scaling("linear", &Linear);
     bench_scaling("oscillators", &Oscillators);
 }

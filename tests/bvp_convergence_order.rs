@@ -7,7 +7,12 @@ use common::*;
 use suslov::bvp::Status;
 
 /// Fit the orders for `problem` on meshes with `intervals`; returns (node order, dense order).
-fn measure<P: Exact>(name: &str, prob: &P, intervals: &[usize], guess: &dyn Fn(f64) -> Vec<f64>) -> (f64, f64) {
+fn measure<P: Exact>(
+    name: &str,
+    prob: &P,
+    intervals: &[usize],
+    guess: &dyn Fn(f64) -> Vec<f64>,
+) -> (f64, f64) {
     let (a, b) = prob.interval();
     let mut hs = vec![];
     let mut node_errs = vec![];
@@ -28,15 +33,34 @@ fn measure<P: Exact>(name: &str, prob: &P, intervals: &[usize], guess: &dyn Fn(f
         node_errs.push(e);
         dense_errs.push(dense_error(prob, &sol, 20 * n + 7));
     }
-    let (on, od) = (fitted_order(&hs, &node_errs), fitted_order(&hs, &dense_errs));
-    let fmt = |v: &[f64]| v.iter().map(|e| format!("{e:.2e}")).collect::<Vec<_>>().join(" ");
-    println!("{name}: h = {}\n  node errors  {} -> order {on:.2}\n  dense errors {} -> order {od:.2}", fmt(&hs), fmt(&node_errs), fmt(&dense_errs));
+    let (on, od) = (
+        fitted_order(&hs, &node_errs),
+        fitted_order(&hs, &dense_errs),
+    );
+    let fmt = |v: &[f64]| {
+        v.iter()
+            .map(|e| format!("{e:.2e}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    };
+    println!(
+        "{name}: h = {}\n  node errors  {} -> order {on:.2}\n  dense errors {} -> order {od:.2}",
+        fmt(&hs),
+        fmt(&node_errs),
+        fmt(&dense_errs)
+    );
     (on, od)
 }
 
 fn assert_orders(name: &str, (node, dense): (f64, f64)) {
-    assert!((node - 6.0).abs() <= 0.5, "{name}: node order {node:.2}, expected 6 +- 0.5");
-    assert!((dense - 5.0).abs() <= 0.5, "{name}: dense-output order {dense:.2}, expected 5 +- 0.5");
+    assert!(
+        (node - 6.0).abs() <= 0.5,
+        "{name}: node order {node:.2}, expected 6 +- 0.5"
+    );
+    assert!(
+        (dense - 5.0).abs() <= 0.5,
+        "{name}: dense-output order {dense:.2}, expected 5 +- 0.5"
+    );
 }
 
 #[test]
@@ -47,7 +71,9 @@ fn order_linear() {
 
 #[test]
 fn order_nonlinear() {
-    let o = measure("quadratic", &Quadratic, &[4, 8, 16, 32], &|x| vec![4.0 - 3.0 * x, -3.0]);
+    let o = measure("quadratic", &Quadratic, &[4, 8, 16, 32], &|x| {
+        vec![4.0 - 3.0 * x, -3.0]
+    });
     assert_orders("quadratic", o);
 }
 
@@ -62,7 +88,9 @@ fn order_parameter() {
 #[test]
 fn order_boundary_layer() {
     let prob = BoundaryLayer { eps: 1e-3 };
-    let o = measure("boundary layer", &prob, &[500, 1000, 2000, 4000], &|x| vec![x, 1.0]);
+    let o = measure("boundary layer", &prob, &[500, 1000, 2000, 4000], &|x| {
+        vec![x, 1.0]
+    });
     assert_orders("boundary layer", o);
 }
 
@@ -76,6 +104,8 @@ fn order_bratu() {
 #[test]
 fn order_interior_layer() {
     let prob = InteriorLayer { w: 0.01 };
-    let o = measure("tanh layer", &prob, &[200, 400, 800, 1600], &|x| vec![2.0 * x - 1.0, 2.0]);
+    let o = measure("tanh layer", &prob, &[200, 400, 800, 1600], &|x| {
+        vec![2.0 * x - 1.0, 2.0]
+    });
     assert_orders("tanh layer", o);
 }

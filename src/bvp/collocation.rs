@@ -17,7 +17,7 @@
 //! ```
 //!
 //! The first `m*n + k` rows/unknowns form the *global* system; the stage rows/unknowns are
-//! eliminated interval by interval (see [`Collocation::evaluate_jacobian`]).
+//! eliminated interval by interval (see `Collocation::evaluate_jacobian`).
 
 use super::dense::{lu_factor, lu_solve, sub_mat_mul};
 use super::problem::{BvpProblem, Evaluator};
@@ -85,7 +85,14 @@ impl Tableau {
             (0.5, 16.0 / 45.0),
             (0.5 * (1.0 + r), 49.0 / 180.0),
         ];
-        Self { c, a, b, lag, beta, sample }
+        Self {
+            c,
+            a,
+            b,
+            lag,
+            beta,
+            sample,
+        }
     }
 
     /// Weights `(beta_j(t))_j` and `(L_j(t))_j` at `t` in `[0, 1]`.
@@ -94,7 +101,8 @@ impl Tableau {
         let mut lv = [0.0; 4];
         for j in 0..4 {
             bv[j] = eval_poly5(&self.beta[j], t);
-            lv[j] = self.lag[j][0] + t * (self.lag[j][1] + t * (self.lag[j][2] + t * self.lag[j][3]));
+            lv[j] =
+                self.lag[j][0] + t * (self.lag[j][1] + t * (self.lag[j][2] + t * self.lag[j][3]));
         }
         (bv, lv)
     }
@@ -213,13 +221,23 @@ impl Collocation {
         let p = &u[self.lay.p_offset()..self.lay.p_offset() + k];
         let so = self.lay.stage_offset();
         for i in 0..m {
-            ev.eval_f(self.x[i], &u[i * n..(i + 1) * n], p, &mut self.fnodes[i * n..(i + 1) * n]);
+            ev.eval_f(
+                self.x[i],
+                &u[i * n..(i + 1) * n],
+                p,
+                &mut self.fnodes[i * n..(i + 1) * n],
+            );
         }
         for i in 0..m - 1 {
             for s in 0..2 {
                 let off = (2 * i + s) * n;
                 let xs = self.x[i] + self.tab.c[s + 1] * self.h[i];
-                ev.eval_f(xs, &u[so + off..so + off + n], p, &mut self.fstages[off..off + n]);
+                ev.eval_f(
+                    xs,
+                    &u[so + off..so + off + n],
+                    p,
+                    &mut self.fstages[off..off + n],
+                );
             }
         }
         let tab = &self.tab;
@@ -241,8 +259,16 @@ impl Collocation {
             }
         }
         let bo = self.lay.bc_offset();
-        ev.eval_bc(&u[0..n], &u[(m - 1) * n..m * n], p, &mut res[bo..bo + n + k]);
-        self.fnodes.iter().chain(self.fstages.iter()).all(|v| v.is_finite())
+        ev.eval_bc(
+            &u[0..n],
+            &u[(m - 1) * n..m * n],
+            p,
+            &mut res[bo..bo + n + k],
+        );
+        self.fnodes
+            .iter()
+            .chain(self.fstages.iter())
+            .all(|v| v.is_finite())
             && res.iter().all(|v| v.is_finite())
     }
 
@@ -311,8 +337,12 @@ impl Collocation {
         for i in 0..nn {
             self.condense_interval(i)?;
         }
-        self.evaluate_bc_jacobian(ev, u, &res[self.lay.bc_offset()..self.lay.bc_offset() + n + k])
-            .map_err(|_| nn)
+        self.evaluate_bc_jacobian(
+            ev,
+            u,
+            &res[self.lay.bc_offset()..self.lay.bc_offset() + n + k],
+        )
+        .map_err(|_| nn)
     }
 
     /// Build `K_i`, `W_i`, `C_i` and `[A_i B_i P_i]` of interval `i` (formulas in
@@ -420,7 +450,16 @@ impl Collocation {
         let (dya, rest) = jacs.split_at_mut(rows * n);
         let (dyb, dp) = rest.split_at_mut(rows * n);
         let p = &u[self.lay.p_offset()..self.lay.p_offset() + k];
-        ev.eval_bc_jac(&u[0..n], &u[(m - 1) * n..m * n], p, g0, dya, dyb, &mut dp[..rows * k], work);
+        ev.eval_bc_jac(
+            &u[0..n],
+            &u[(m - 1) * n..m * n],
+            p,
+            g0,
+            dya,
+            dyb,
+            &mut dp[..rows * k],
+            work,
+        );
         for r in 0..rows {
             self.bc_blocks[r * wc..r * wc + n].copy_from_slice(&dya[r * n..(r + 1) * n]);
             self.bc_blocks[r * wc + n..r * wc + 2 * n].copy_from_slice(&dyb[r * n..(r + 1) * n]);
@@ -443,7 +482,13 @@ impl Collocation {
         for i in 0..self.lay.intervals() {
             let z = &mut self.z[i * s..(i + 1) * s];
             z.copy_from_slice(&res[so + i * s..so + (i + 1) * s]);
-            lu_solve(&self.klu[i * s * s..(i + 1) * s * s], s, &self.kpiv[i * s..(i + 1) * s], z, 1);
+            lu_solve(
+                &self.klu[i * s * s..(i + 1) * s * s],
+                s,
+                &self.kpiv[i * s..(i + 1) * s],
+                z,
+                1,
+            );
             let cm = &self.cmat[i * n * s..(i + 1) * n * s];
             for r in 0..n {
                 let mut acc = res[i * n + r];

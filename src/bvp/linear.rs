@@ -83,25 +83,30 @@ impl GlobalSystem {
     pub fn new(n: usize, k: usize, m: usize) -> Self {
         let order = m * n + k;
         let pattern = global_jacobian_pattern(n, k, m);
-        let pairs: Vec<Pair<usize, usize>> = pattern.iter().map(|&(r, c)| Pair::new(r, c)).collect();
+        let pairs: Vec<Pair<usize, usize>> =
+            pattern.iter().map(|&(r, c)| Pair::new(r, c)).collect();
         let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(order, order, &pairs)
             .expect("the global pattern has in-bounds, well-formed indices by construction");
         let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
             .expect("symbolic LU of the global pattern (allocation failure)");
         let values = vec![0.0; pattern.len()];
-        Self { order, symbolic, argsort, symbolic_lu, pattern, values, lu: None }
-    }
-
-    /// Order of the system, `m*n + k`.
-    pub fn order(&self) -> usize {
-        self.order
+        Self {
+            order,
+            symbolic,
+            argsort,
+            symbolic_lu,
+            pattern,
+            values,
+            lu: None,
+        }
     }
 
     /// Numeric LU of the current `values` (symbolic analysis reused).
     pub fn factor(&mut self) -> Result<(), FactorError> {
         self.lu = None;
-        let mat = SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &self.values)
-            .map_err(|_| FactorError::Singular)?;
+        let mat =
+            SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &self.values)
+                .map_err(|_| FactorError::Singular)?;
         let lu = Lu::try_new_with_symbolic(self.symbolic_lu.clone(), mat.as_ref())
             .map_err(|_| FactorError::Singular)?;
         self.lu = Some(lu);
@@ -146,7 +151,7 @@ impl GlobalSystem {
             }
             let size = z.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
             let change = r.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-            if !(change <= 1e-3 * size) {
+            if change.is_nan() || change > 1e-3 * size {
                 return f64::INFINITY;
             }
             worst = worst.max(size);
@@ -160,7 +165,9 @@ impl GlobalSystem {
     /// refined by Higham (TOMS 14, 1988): at most 5 pairs of solves with `J` and `J^T`.
     /// Infinite if there is no factorisation or a solve fails.
     pub fn condition_estimate(&self) -> f64 {
-        let Some(lu) = &self.lu else { return f64::INFINITY };
+        let Some(lu) = &self.lu else {
+            return f64::INFINITY;
+        };
         let order = self.order;
         let pattern = &self.pattern;
         let mut row_max = vec![0.0_f64; order];
@@ -183,7 +190,10 @@ impl GlobalSystem {
             for ((yv, xv), d) in y.iter_mut().zip(&x).zip(&row_max) {
                 *yv = xv * d;
             }
-            lu.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut y, order, 1));
+            lu.solve_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut y, order, 1),
+            );
             if !y.iter().all(|v| v.is_finite()) {
                 return f64::INFINITY;
             }
@@ -192,16 +202,27 @@ impl GlobalSystem {
                 break;
             }
             est = new_est;
-            let mut z: Vec<f64> = y.iter().map(|&v| if v >= 0.0 { 1.0 } else { -1.0 }).collect();
-            lu.solve_transpose_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(&mut z, order, 1));
+            let mut z: Vec<f64> = y
+                .iter()
+                .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
+                .collect();
+            lu.solve_transpose_in_place_with_conj(
+                Conj::No,
+                MatMut::from_column_major_slice_mut(&mut z, order, 1),
+            );
             for (zv, d) in z.iter_mut().zip(&row_max) {
                 *zv *= d;
             }
             if !z.iter().all(|v| v.is_finite()) {
                 return f64::INFINITY;
             }
-            let (j, zmax) =
-                z.iter().enumerate().fold((0, 0.0_f64), |(bj, bv), (i, v)| if v.abs() > bv { (i, v.abs()) } else { (bj, bv) });
+            let (j, zmax) = z.iter().enumerate().fold((0, 0.0_f64), |(bj, bv), (i, v)| {
+                if v.abs() > bv {
+                    (i, v.abs())
+                } else {
+                    (bj, bv)
+                }
+            });
             let ztx: f64 = z.iter().zip(&x).map(|(a, b)| a * b).sum();
             if iter > 0 && zmax <= ztx {
                 break;
@@ -212,7 +233,8 @@ impl GlobalSystem {
         norm * est
     }
 
-    /// The assembled matrix as dense row-major (tests and diagnostics only).
+    /// The assembled matrix as dense row-major (tests only).
+    #[cfg(test)]
     pub fn to_dense(&self) -> Vec<f64> {
         let mut d = vec![0.0; self.order * self.order];
         for (&(r, c), v) in self.pattern.iter().zip(&self.values) {

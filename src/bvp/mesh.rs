@@ -1,17 +1,17 @@
 //! Error estimation and mesh adaptation.
 //!
-//! 1. [`estimate_errors`]: sample the residual `r = u' - f(x, u, p)` of the collocation
+//! 1. `estimate_errors`: sample the residual `r = u' - f(x, u, p)` of the collocation
 //!    polynomial at the three interior 5-point Lobatto points of every interval (it vanishes
 //!    at the four collocation points) and form the per-interval measures of
 //!    [`ErrorControl`]; also verify the discrete equations and the boundary conditions.
-//! 2. [`adapt_mesh`]: equidistribute the predicted number of subintervals. With
+//! 2. `adapt_mesh`: equidistribute the predicted number of subintervals. With
 //!    `e_i ~ C h_i^q` (`q = 5` for error control, 4 for residual control) interval `i` wants
 //!    `m_i = (e_i / target)^(1/q)` subintervals. Intervals far below the tolerance
 //!    (`m_i <= 1/2`) get `m_i = 1/2` (pairs merge: coarsening), intervals in between keep
 //!    `m_i = 1`, and `m_i <= 8` per pass (the estimate is asymptotic). The new mesh
 //!    equidistributes the piecewise-constant density `m_i / h_i`.
-//! 3. [`halve_mesh`]: uniform bisection, used when Newton fails on a mesh.
-//! 4. [`transfer_solution`]: move the iterate to a new mesh through the dense output.
+//! 3. `halve_mesh`: uniform bisection, used when Newton fails on a mesh.
+//! 4. `transfer_solution`: move the iterate to a new mesh through the dense output.
 
 use super::collocation::{eval_collocation_polynomial, Collocation};
 use super::options::{ErrorControl, Options};
@@ -116,10 +116,16 @@ pub(crate) fn estimate_errors<P: BvpProblem + ?Sized>(
         }
     }
     let bo = lay.bc_offset();
-    est.bc_residual = res[bo..bo + n + k].iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+    est.bc_residual = res[bo..bo + n + k]
+        .iter()
+        .fold(0.0_f64, |a, v| a.max(v.abs()));
     est.max_error = est.errors.iter().fold(0.0_f64, |a, &v| a.max(v));
     est.max_residual = est.residuals.iter().fold(0.0_f64, |a, &v| a.max(v));
-    est.finite = est.errors.iter().chain(&est.residuals).all(|v| v.is_finite())
+    est.finite = est
+        .errors
+        .iter()
+        .chain(&est.residuals)
+        .all(|v| v.is_finite())
         && est.max_defect.is_finite()
         && est.bc_residual.is_finite();
     if !est.finite {
@@ -195,7 +201,10 @@ pub(crate) fn transfer_solution(col: &Collocation, u: &[f64], new_x: &[f64]) -> 
     let mut out = vec![0.0; new_lay.total()];
     let old_x = &col.x;
     let eval_at = |xq: f64, dst: &mut [f64]| {
-        let i = old_x.partition_point(|&v| v <= xq).saturating_sub(1).min(lay.m - 2);
+        let i = old_x
+            .partition_point(|&v| v <= xq)
+            .saturating_sub(1)
+            .min(lay.m - 2);
         let h = col.h[i];
         eval_collocation_polynomial(
             &col.tab,

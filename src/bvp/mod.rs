@@ -128,7 +128,11 @@ const NUMERICALLY_SINGULAR: f64 = 1e-3;
 const MAX_NEWTON_FAILURES: usize = 4;
 
 /// Check the problem dimensions, the guess and the options.
-fn validate_input<P: BvpProblem + ?Sized>(problem: &P, guess: &Guess, options: &Options) -> Result<(), BvpError> {
+fn validate_input<P: BvpProblem + ?Sized>(
+    problem: &P,
+    guess: &Guess,
+    options: &Options,
+) -> Result<(), BvpError> {
     let (n, k) = (problem.n(), problem.k());
     if n == 0 {
         return Err(BvpError::NoStates);
@@ -140,30 +144,58 @@ fn validate_input<P: BvpProblem + ?Sized>(problem: &P, guess: &Guess, options: &
     }
     for (index, &v) in guess.x.iter().enumerate() {
         if !v.is_finite() {
-            return Err(BvpError::NonFiniteInput { what: "mesh", index, value: v });
+            return Err(BvpError::NonFiniteInput {
+                what: "mesh",
+                index,
+                value: v,
+            });
         }
     }
     for (index, w) in guess.x.windows(2).enumerate() {
         if w[1] <= w[0] {
-            return Err(BvpError::MeshNotIncreasing { index, left: w[0], right: w[1] });
+            return Err(BvpError::MeshNotIncreasing {
+                index,
+                left: w[0],
+                right: w[1],
+            });
         }
     }
     if guess.y.len() != m * n {
-        return Err(BvpError::DimensionMismatch { what: "guess values (m * n)", expected: m * n, found: guess.y.len() });
+        return Err(BvpError::DimensionMismatch {
+            what: "guess values (m * n)",
+            expected: m * n,
+            found: guess.y.len(),
+        });
     }
     if guess.p.len() != k {
-        return Err(BvpError::DimensionMismatch { what: "guess parameters (k)", expected: k, found: guess.p.len() });
+        return Err(BvpError::DimensionMismatch {
+            what: "guess parameters (k)",
+            expected: k,
+            found: guess.p.len(),
+        });
     }
     if let Some(s) = &guess.stages {
         let expected = (m - 1) * 2 * n;
         if s.len() != expected {
-            return Err(BvpError::DimensionMismatch { what: "guess stage values", expected, found: s.len() });
+            return Err(BvpError::DimensionMismatch {
+                what: "guess stage values",
+                expected,
+                found: s.len(),
+            });
         }
     }
-    let values = guess.y.iter().chain(&guess.p).chain(guess.stages.iter().flatten());
+    let values = guess
+        .y
+        .iter()
+        .chain(&guess.p)
+        .chain(guess.stages.iter().flatten());
     for (index, &v) in values.enumerate() {
         if !v.is_finite() {
-            return Err(BvpError::NonFiniteInput { what: "guess values", index, value: v });
+            return Err(BvpError::NonFiniteInput {
+                what: "guess values",
+                index,
+                value: v,
+            });
         }
     }
     Ok(())
@@ -171,7 +203,11 @@ fn validate_input<P: BvpProblem + ?Sized>(problem: &P, guess: &Guess, options: &
 
 /// The flat unknown vector of a guess (stages interpolated linearly when absent).
 fn initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
-    let lay = Layout { n, k, m: guess.x.len() };
+    let lay = Layout {
+        n,
+        k,
+        m: guess.x.len(),
+    };
     let mut u = vec![0.0; lay.total()];
     u[..lay.m * n].copy_from_slice(&guess.y);
     u[lay.p_offset()..lay.p_offset() + k].copy_from_slice(&guess.p);
@@ -184,7 +220,8 @@ fn initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
                 for s in 0..2 {
                     let c = tab.c[s + 1];
                     for j in 0..n {
-                        u[so + (2 * i + s) * n + j] = (1.0 - c) * guess.y[i * n + j] + c * guess.y[(i + 1) * n + j];
+                        u[so + (2 * i + s) * n + j] =
+                            (1.0 - c) * guess.y[i * n + j] + c * guess.y[(i + 1) * n + j];
                     }
                 }
             }
@@ -196,7 +233,12 @@ fn initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
 /// Fill `stats.bc_condition` and `stats.condition_estimate` from the last factorisation and
 /// return whether the problem counts as well posed at the requested tolerance (see
 /// [`Options::conditioning_limit`]).
-fn estimate_conditioning(sys: &GlobalSystem, col: &Collocation, options: &Options, stats: &mut Stats) -> bool {
+fn estimate_conditioning(
+    sys: &GlobalSystem,
+    col: &Collocation,
+    options: &Options,
+    stats: &mut Stats,
+) -> bool {
     stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), col.lay.n + col.lay.k);
     stats.condition_estimate = sys.condition_estimate();
     stats.bc_condition * options.tol <= options.conditioning_limit
@@ -240,7 +282,11 @@ fn build_solution<P: BvpProblem + ?Sized>(
 
 /// Solve the BVP from `guess` with `options`. Shorthand for [`solve_with_progress`] without
 /// a progress hook.
-pub fn solve<P: BvpProblem + ?Sized>(problem: &P, guess: &Guess, options: &Options) -> Result<Solution, BvpError> {
+pub fn solve<P: BvpProblem + ?Sized>(
+    problem: &P,
+    guess: &Guess,
+    options: &Options,
+) -> Result<Solution, BvpError> {
     solve_with_progress(problem, guess, options, &mut |_| {})
 }
 
@@ -273,11 +319,19 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         let mut sys = GlobalSystem::new(n, k, x.len());
         stats.mesh_passes += 1;
         stats.mesh_history.push(x.len());
-        let outcome = solve_newton(&ev, &mut col, &mut sys, &mut u, options, &mut stats, pass, progress);
+        let outcome = solve_newton(
+            &ev, &mut col, &mut sys, &mut u, options, &mut stats, pass, progress,
+        );
         let mut res = vec![0.0; col.lay.total()];
         let finite = col.evaluate_residual(&ev, &u, &mut res);
-        let est = if finite { estimate_errors(&ev, &col, &u, &res, options) } else { ErrorEstimate::default() };
-        let finish = |status, est, stats, col: &mut Collocation| Ok(build_solution(&ev, col, &u, est, stats, status));
+        let est = if finite {
+            estimate_errors(&ev, &col, &u, &res, options)
+        } else {
+            ErrorEstimate::default()
+        };
+        let finish = |status, est, stats, col: &mut Collocation| {
+            Ok(build_solution(&ev, col, &u, est, stats, status))
+        };
         let early = match outcome {
             NewtonOutcome::Singular => Some(Status::SingularJacobian),
             NewtonOutcome::NonFinite => Some(Status::NonFinite),
@@ -309,7 +363,11 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         } else if accurate {
             status = Some(Status::BcTolNotMet);
         } else if !options.adapt_mesh {
-            status = Some(if newton_ok { Status::ToleranceNotMet } else { Status::NoConvergence });
+            status = Some(if newton_ok {
+                Status::ToleranceNotMet
+            } else {
+                Status::NoConvergence
+            });
         } else if newton_ok {
             failures = 0;
             next_x = Some(adapt_mesh(&x, &est.errors, order));

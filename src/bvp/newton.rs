@@ -47,7 +47,14 @@ pub(crate) enum NewtonOutcome {
 /// Scaled norms of a correction `d` at the iterate `u`: `(rms, max)` of
 /// `|d_j| / (atol s_j + tol |u_j|)`. The RMS norm drives damping (smooth, as in NLEQ-ERR), the
 /// max-norm decides convergence (no component may be left behind). NaN maps to infinity.
-pub(crate) fn scaled_norms(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol: f64, tol: f64) -> (f64, f64) {
+pub(crate) fn scaled_norms(
+    lay: Layout,
+    d: &[f64],
+    u: &[f64],
+    absw: &[f64],
+    atol: f64,
+    tol: f64,
+) -> (f64, f64) {
     let (n, po, so) = (lay.n, lay.p_offset(), lay.stage_offset());
     let mut worst = 0.0_f64;
     let mut sum = 0.0;
@@ -72,7 +79,12 @@ pub(crate) fn scaled_norms(lay: Layout, d: &[f64], u: &[f64], absw: &[f64], atol
 }
 
 /// `out = -J^{-1} res` with the current factorisations (condense, global solve, expand).
-pub(crate) fn compute_correction(col: &mut Collocation, sys: &GlobalSystem, res: &[f64], out: &mut [f64]) -> bool {
+pub(crate) fn compute_correction(
+    col: &mut Collocation,
+    sys: &GlobalSystem,
+    res: &[f64],
+    out: &mut [f64],
+) -> bool {
     let g = col.lay.global();
     col.reduce_residual(res, &mut out[..g]);
     if !sys.solve_in_place(&mut out[..g]) {
@@ -92,7 +104,8 @@ fn refresh_jacobian<P: BvpProblem + ?Sized>(
     stats: &mut Stats,
 ) -> Result<(), NewtonOutcome> {
     stats.jacobian_evaluations += 1;
-    col.evaluate_jacobian(ev, u, res).map_err(|_| NewtonOutcome::Singular)?;
+    col.evaluate_jacobian(ev, u, res)
+        .map_err(|_| NewtonOutcome::Singular)?;
     col.assemble_global(&mut sys.values);
     stats.factorizations += 1;
     sys.factor().map_err(|_| NewtonOutcome::Singular)
@@ -158,8 +171,11 @@ pub(crate) fn solve_newton<P: BvpProblem + ?Sized>(
             }
             let ok = col.evaluate_residual(ev, &u_trial, &mut res_trial)
                 && compute_correction(col, sys, &res_trial, &mut dxb);
-            let (ndxb, ndxb_max) =
-                if ok { scaled_norms(lay, &dxb, &u_trial, &absw, atol, tol) } else { (f64::INFINITY, f64::INFINITY) };
+            let (ndxb, ndxb_max) = if ok {
+                scaled_norms(lay, &dxb, &u_trial, &absw, atol, tol)
+            } else {
+                (f64::INFINITY, f64::INFINITY)
+            };
             if ndxb <= (1.0 - 0.25 * lambda) * ndx {
                 // Accept.
                 u.copy_from_slice(&u_trial);
@@ -217,6 +233,11 @@ fn report(
     progress(&Progress {
         pass,
         nodes,
-        event: ProgressEvent::NewtonStep { iteration, correction_norm, damping, fresh_jacobian },
+        event: ProgressEvent::NewtonStep {
+            iteration,
+            correction_norm,
+            damping,
+            fresh_jacobian,
+        },
     });
 }

@@ -128,14 +128,18 @@ impl Options {
             if value > 0.0 && value.is_finite() {
                 Ok(())
             } else {
-                Err(BvpError::InvalidOption { name, value, expected: "a finite number > 0" })
+                Err(BvpError::InvalidOption {
+                    name,
+                    value,
+                    expected: "a finite number > 0",
+                })
             }
         };
         positive("tol", self.tol)?;
         positive("atol", self.atol())?;
         positive("bc_tol", self.bc_tol())?;
         positive("newton_tol", self.newton_tol)?;
-        if !(self.conditioning_limit > 0.0) {
+        if self.conditioning_limit.is_nan() || self.conditioning_limit <= 0.0 {
             return Err(BvpError::InvalidOption {
                 name: "conditioning_limit",
                 value: self.conditioning_limit,
@@ -179,7 +183,11 @@ impl Options {
         }
         if let Some(s) = &self.scale {
             if s.len() != n {
-                return Err(BvpError::DimensionMismatch { what: "options.scale", expected: n, found: s.len() });
+                return Err(BvpError::DimensionMismatch {
+                    what: "options.scale",
+                    expected: n,
+                    found: s.len(),
+                });
             }
             for &v in s {
                 positive("scale[j]", v)?;

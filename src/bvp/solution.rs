@@ -165,7 +165,12 @@ impl Guess {
     /// Values `y` (row-major `m x n`: `y[i*n + j]` = component `j` at node `x[i]`) on the mesh
     /// `x`, with parameters `p`. Interior stages are interpolated linearly.
     pub fn from_values(x: Vec<f64>, y: Vec<f64>, p: Vec<f64>) -> Self {
-        Self { x, y, p, stages: None }
+        Self {
+            x,
+            y,
+            p,
+            stages: None,
+        }
     }
 
     /// Sample `y0(x, out)` (writes `n` values) at the nodes of `x` and at the interior
@@ -185,13 +190,23 @@ impl Guess {
                 y0(x[i] + tab.c[s + 1] * h, &mut stages[off..off + n]);
             }
         }
-        Self { x: x.to_vec(), y, p, stages: Some(stages) }
+        Self {
+            x: x.to_vec(),
+            y,
+            p,
+            stages: Some(stages),
+        }
     }
 
     /// A warm start from a previous solution: its mesh, node and stage values and
     /// parameters (an exact restart: Newton converges at once if nothing changed).
     pub fn from_solution(sol: &Solution) -> Self {
-        Self { x: sol.x.clone(), y: sol.y.clone(), p: sol.p.clone(), stages: Some(sol.stages.clone()) }
+        Self {
+            x: sol.x.clone(),
+            y: sol.y.clone(),
+            p: sol.p.clone(),
+            stages: Some(sol.stages.clone()),
+        }
     }
 
     /// A previous solution resampled on another mesh `x` through its dense output.
@@ -289,7 +304,11 @@ impl Solution {
     /// polynomials are extrapolated).
     fn locate(&self, x: f64) -> (usize, f64) {
         let m = self.x.len();
-        let i = self.x.partition_point(|&v| v <= x).saturating_sub(1).min(m - 2);
+        let i = self
+            .x
+            .partition_point(|&v| v <= x)
+            .saturating_sub(1)
+            .min(m - 2);
         let h = self.x[i + 1] - self.x[i];
         (i, (x - self.x[i]) / h)
     }

@@ -16,8 +16,18 @@ use super::problem::{estimate_bc_jac, estimate_fun_jac, BvpProblem, Evaluator};
 fn tableau_matches_closed_form() {
     let t = Tableau::lobatto_iiia4();
     let s5 = 5.0_f64.sqrt();
-    let a2 = [(11.0 + s5) / 120.0, (25.0 - s5) / 120.0, (25.0 - 13.0 * s5) / 120.0, (-1.0 + s5) / 120.0];
-    let a3 = [(11.0 - s5) / 120.0, (25.0 + 13.0 * s5) / 120.0, (25.0 + s5) / 120.0, (-1.0 - s5) / 120.0];
+    let a2 = [
+        (11.0 + s5) / 120.0,
+        (25.0 - s5) / 120.0,
+        (25.0 - 13.0 * s5) / 120.0,
+        (-1.0 + s5) / 120.0,
+    ];
+    let a3 = [
+        (11.0 - s5) / 120.0,
+        (25.0 + 13.0 * s5) / 120.0,
+        (25.0 + s5) / 120.0,
+        (-1.0 - s5) / 120.0,
+    ];
     let b = [1.0 / 12.0, 5.0 / 12.0, 5.0 / 12.0, 1.0 / 12.0];
     for j in 0..4 {
         assert!((t.a[0][j]).abs() < 1e-15);
@@ -87,7 +97,10 @@ fn global_jacobian_pattern_is_exact() {
     for r in 0..order {
         assert_eq!(dense[r], expected[r], "row {r}");
     }
-    assert_eq!(pattern.len(), (m - 1) * n * (2 * n + k) + (n + k) * (2 * n + k));
+    assert_eq!(
+        pattern.len(),
+        (m - 1) * n * (2 * n + k) + (n + k) * (2 * n + k)
+    );
 }
 
 /// A nonlinear test problem exercising every Jacobian block (x, y and p dependence,
@@ -114,7 +127,15 @@ impl BvpProblem for Mixed {
         r[1] = yb[0] * yb[1] - 0.5;
         r[2] = ya[1] + yb[0] * yb[0] - p[0];
     }
-    fn bc_jac(&self, ya: &[f64], yb: &[f64], p: &[f64], dya: &mut [f64], dyb: &mut [f64], dp: &mut [f64]) -> bool {
+    fn bc_jac(
+        &self,
+        ya: &[f64],
+        yb: &[f64],
+        p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        dp: &mut [f64],
+    ) -> bool {
         dya.copy_from_slice(&[1.0, p[0], 0.0, 0.0, 0.0, 1.0]);
         dyb.copy_from_slice(&[0.0, 0.0, yb[1], yb[0], 2.0 * yb[0], 0.0]);
         dp.copy_from_slice(&[ya[1], 0.0, -1.0]);
@@ -125,8 +146,14 @@ impl BvpProblem for Mixed {
 /// A deterministic, non-trivial iterate on a non-uniform mesh.
 fn sample_state() -> (Vec<f64>, Vec<f64>) {
     let x = vec![0.0, 0.2, 0.5, 0.65, 1.0];
-    let lay = Layout { n: 2, k: 1, m: x.len() };
-    let u: Vec<f64> = (0..lay.total()).map(|i| 0.3 + 0.1 * ((i * 7 % 11) as f64) - 0.05 * (i as f64).sin()).collect();
+    let lay = Layout {
+        n: 2,
+        k: 1,
+        m: x.len(),
+    };
+    let u: Vec<f64> = (0..lay.total())
+        .map(|i| 0.3 + 0.1 * ((i * 7 % 11) as f64) - 0.05 * (i as f64).sin())
+        .collect();
     (x, u)
 }
 
@@ -173,8 +200,23 @@ fn analytic_and_fd_problem_jacobians_agree() {
     let (mut da, mut db, mut dp) = ([0.0; 6], [0.0; 6], [0.0; 3]);
     let (mut fa, mut fb, mut fp) = ([0.0; 6], [0.0; 6], [0.0; 3]);
     assert!(Mixed.bc_jac(&ya, &yb, &p, &mut da, &mut db, &mut dp));
-    estimate_bc_jac(&Mixed, &ya, &yb, &p, &g0, &mut fa, &mut fb, &mut fp, &mut [0.0; 8]);
-    for (a, b) in da.iter().chain(&db).chain(&dp).zip(fa.iter().chain(&fb).chain(&fp)) {
+    estimate_bc_jac(
+        &Mixed,
+        &ya,
+        &yb,
+        &p,
+        &g0,
+        &mut fa,
+        &mut fb,
+        &mut fp,
+        &mut [0.0; 8],
+    );
+    for (a, b) in da
+        .iter()
+        .chain(&db)
+        .chain(&dp)
+        .zip(fa.iter().chain(&fb).chain(&fp))
+    {
         assert!((a - b).abs() <= 1e-6 * (1.0 + a.abs()), "{a} vs {b}");
     }
 }
@@ -192,7 +234,8 @@ fn condensed_jacobian_and_correction_match_finite_differences() {
         let lay = col.lay;
         let jfull = fd_full_jacobian(&ev, &mut col, &u);
         let res = residual(&ev, &mut col, &u);
-        col.evaluate_jacobian(&ev, &u, &res).expect("nonsingular stage blocks");
+        col.evaluate_jacobian(&ev, &u, &res)
+            .expect("nonsingular stage blocks");
         let mut sys = GlobalSystem::new(2, 1, x.len());
         col.assemble_global(&mut sys.values);
         let (g, total) = (lay.global(), lay.total());
@@ -200,21 +243,35 @@ fn condensed_jacobian_and_correction_match_finite_differences() {
         let jgs = jfull.view((0, g), (g, total - g));
         let jsg = jfull.view((g, 0), (total - g, g));
         let jss = jfull.view((g, g), (total - g, total - g)).into_owned();
-        let schur = jgg - jgs * jss.lu().solve(&jsg.into_owned()).expect("stage blocks invertible");
+        let schur = jgg
+            - jgs
+                * jss
+                    .lu()
+                    .solve(&jsg.into_owned())
+                    .expect("stage blocks invertible");
         let dense = sys.to_dense();
         for r in 0..g {
             for c in 0..g {
                 let (a, b) = (dense[r * g + c], schur[(r, c)]);
-                assert!((a - b).abs() <= 1e-6 * (1.0 + b.abs()), "{source:?} ({r},{c}): {a} vs {b}");
+                assert!(
+                    (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
+                    "{source:?} ({r},{c}): {a} vs {b}"
+                );
             }
         }
         // Newton correction vs dense FD solve.
         sys.factor().expect("nonsingular");
         let mut dx = vec![0.0; total];
         assert!(compute_correction(&mut col, &sys, &res, &mut dx));
-        let expected = jfull.lu().solve(&(-DVector::from_vec(res.clone()))).expect("nonsingular");
+        let expected = jfull
+            .lu()
+            .solve(&(-DVector::from_vec(res.clone())))
+            .expect("nonsingular");
         for (i, (a, b)) in dx.iter().zip(expected.iter()).enumerate() {
-            assert!((a - b).abs() <= 1e-6 * (1.0 + b.abs()), "{source:?} dx[{i}]: {a} vs {b}");
+            assert!(
+                (a - b).abs() <= 1e-6 * (1.0 + b.abs()),
+                "{source:?} dx[{i}]: {a} vs {b}"
+            );
         }
     }
 }
@@ -228,9 +285,21 @@ fn adapt_mesh_refines_and_merges() {
     assert_eq!(new[0], 0.0);
     assert_eq!(*new.last().unwrap(), 1.0);
     assert!(new.windows(2).all(|w| w[1] > w[0]));
-    let count = |a: f64, b: f64| new.windows(2).filter(|w| w[0] >= a - 1e-12 && w[1] <= b + 1e-12).count();
-    assert!(count(0.0, 0.625) < 5, "merged: {} intervals in [0, 0.625]", count(0.0, 0.625));
-    assert!(count(0.625, 0.75) >= 4, "refined: {} intervals in [0.625, 0.75]", count(0.625, 0.75));
+    let count = |a: f64, b: f64| {
+        new.windows(2)
+            .filter(|w| w[0] >= a - 1e-12 && w[1] <= b + 1e-12)
+            .count()
+    };
+    assert!(
+        count(0.0, 0.625) < 5,
+        "merged: {} intervals in [0, 0.625]",
+        count(0.0, 0.625)
+    );
+    assert!(
+        count(0.625, 0.75) >= 4,
+        "refined: {} intervals in [0.625, 0.75]",
+        count(0.625, 0.75)
+    );
     assert_eq!(halve_mesh(&[0.0, 1.0, 3.0]), vec![0.0, 0.5, 1.0, 2.0, 3.0]);
 }
 
@@ -267,7 +336,10 @@ fn transfer_reproduces_the_collocation_polynomial() {
     let mut col = Collocation::new(1, 0, &x);
     let mut res = vec![0.0; lay.total()];
     assert!(col.evaluate_residual(&ev, &u, &mut res));
-    assert!(res.iter().all(|r| r.abs() < 1e-14), "exact polynomial solves the collocation equations");
+    assert!(
+        res.iter().all(|r| r.abs() < 1e-14),
+        "exact polynomial solves the collocation equations"
+    );
     let new_x = [0.0, 0.1, 0.45, 0.8, 1.0];
     let v = transfer_solution(&col, &u, &new_x);
     for (i, &xi) in new_x.iter().enumerate() {
