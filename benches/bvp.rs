@@ -142,38 +142,85 @@ fn bench_scaling<P: BvpProblem>(name: &str, prob: &P) {
     }
 }
 
-fn main() {
-    // `cargo bench` passes `--bench`; `cargo test --benches` would pass nothing special.
-    println!("## Test problems (median of repeated cold solves from the same guess)\n");
-    println!("| problem                | tol   | median ms  | nodes  | Newton | Jacs  | f evals  | max err  | status |");
-    println!("|------------------------|-------|------------|--------|--------|-------|----------|----------|--------|");
-    let zero = Guess::from_values(coarse(), vec![0.0; 22], vec![]);
-    bench_problem("linear", &Linear, &zero);
-    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
-        o.copy_from_slice(&[4.0 - 3.0 * x, -3.0])
-    });
-    bench_problem("nonlinear y''=1.5y^2", &Quadratic, &g);
-    let g = Guess::from_fn(&coarse(), 2, vec![3.0], |x, o| {
-        o.copy_from_slice(&[(3.0 * x).sin(), 3.0 * (3.0 * x).cos()])
-    });
-    bench_problem("sturm-liouville (k=1)", &SturmLiouville, &g);
-    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[x, 1.0]));
-    bench_problem("boundary layer 1e-3", &BoundaryLayer { eps: 1e-3 }, &g);
-    bench_problem("bratu lower", &Bratu::new(1.0, 1.0), &zero);
-    let g = Guess::from_fn(&coarse(), 2, vec![], |_, o| o.copy_from_slice(&[3.0, 0.0]));
-    bench_problem("bratu upper", &Bratu::new(1.0, 10.0), &g);
+/// Warm start cost: re-solve from a converged solution (exact restart) and from a
+/// neighbouring parameter value (one continuation step).
+fn bench_warm_start() {
+    let prob = InteriorLayer { w: 0.01 };
     let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
         o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
     });
-    bench_problem("tanh layer w=0.01", &InteriorLayer { w: 0.01 }, &g);
+    let opts = Options {
+        tol: 1e-8,
+        ..Options::default()
+    };
+    let sol = solve(&prob, &g, &opts).unwrap();
+    let warm = Guess::from_solution(&sol);
+    let (t, s) = median_time(Duration::from_millis(400), || {
+        solve(&prob, &warm, &opts).unwrap()
+    });
+    println!(
+        "| exact restart, tanh w=0.01   | {:>10.3} | {:>6} | {:>6} | {:?} |",
+        t.as_secs_f64() * 1e3,
+        s.num_nodes(),
+        s.stats.newton_iterations,
+        s.status
+    );
+    let next = InteriorLayer { w: 0.0105 };
+    let (t, s) = median_time(Duration::from_millis(400), || {
+        solve(&next, &warm, &opts).unwrap()
+    });
+    println!(
+        "| w 0.01 -> 0.0105, tanh       | {:>10.3} | {:>6} | {:>6} | {:?} |",
+        t.as_secs_f64() * 1e3,
+        s.num_nodes(),
+        s.stats.newton_iterations,
+        s.status
+    );
+}
 
-    println!("\n## Scaling: one Newton solve of a linear problem on a fixed uniform mesh\n");
-    println!(
-        "| problem        | n      | N       | median ms  | us/N     | Newton | LUs   | status |"
-    );
-    println!(
-        "|----------------|--------|---------|------------|----------|--------|-------|--------|"
-    );
-    bench_scaling("linear", &Linear);
-    bench_scaling("oscillators", &Oscillators);
+fn main() {
+    // Optional filter: `cargo bench --bench bvp -- scaling` (or `problems`, `warm`).
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let run =
+        |section: &str| filter.is_empty() || filter.iter().any(|f| section.contains(f.as_str()));
+    if run("problems") {
+        println!("## Test problems (median of repeated cold solves from the same guess)\n");
+        println!("| problem                | tol   | median ms  | nodes  | Newton | Jacs  | f evals  | max err  | status |");
+        println!("|------------------------|-------|------------|--------|--------|-------|----------|----------|--------|");
+        let zero = Guess::from_values(coarse(), vec![0.0; 22], vec![]);
+        bench_problem("linear", &Linear, &zero);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+            o.copy_from_slice(&[4.0 - 3.0 * x, -3.0])
+        });
+        bench_problem("nonlinear y''=1.5y^2", &Quadratic, &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![3.0], |x, o| {
+            o.copy_from_slice(&[(3.0 * x).sin(), 3.0 * (3.0 * x).cos()])
+        });
+        bench_problem("sturm-liouville (k=1)", &SturmLiouville, &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[x, 1.0]));
+        bench_problem("boundary layer 1e-3", &BoundaryLayer { eps: 1e-3 }, &g);
+        bench_problem("bratu lower", &Bratu::new(1.0, 1.0), &zero);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |_, o| o.copy_from_slice(&[3.0, 0.0]));
+        bench_problem("bratu upper", &Bratu::new(1.0, 10.0), &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+            o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
+        });
+        bench_problem("tanh layer w=0.01", &InteriorLayer { w: 0.01 }, &g);
+    }
+    if run("warm") {
+        println!("\n## Warm starts (tol 1e-8)\n");
+        println!("| case                         | median ms  | nodes  | Newton | status |");
+        println!("|------------------------------|------------|--------|--------|--------|");
+        bench_warm_start();
+    }
+    if run("scaling") {
+        println!("\n## Scaling: one Newton solve of a linear problem on a fixed uniform mesh\n");
+        println!("| problem        | n      | N       | median ms  | us/N     | Newton | LUs   | status |");
+        println!("|----------------|--------|---------|------------|----------|--------|-------|--------|");
+        bench_scaling("linear", &Linear);
+        bench_scaling("oscillators", &Oscillators);
+    }
 }
