@@ -30,6 +30,42 @@
 //! assert!(again.is_success());
 //! ```
 //!
+//! # Using the API
+//!
+//! * **Guesses** ([`Guess`]): [`Guess::from_values`] (mesh + node values + parameters),
+//!   [`Guess::from_fn`] (a closure sampled on a given mesh, stages included),
+//!   [`Guess::from_solution`] (exact warm start: mesh, node and stage values, parameters) and
+//!   [`Guess::from_solution_on_mesh`] (a previous solution resampled through its dense output);
+//!   [`Guess::with_parameters`] replaces `p` (e.g. a continuation predictor). The solver only
+//!   borrows the guess.
+//! * **Status** ([`Status`]): use [`Solution::is_success`]; [`Status::message`] explains the
+//!   outcome and what to try. A non-converged [`Solution`] still holds the last iterate.
+//! * **Statistics** ([`Stats`]): Newton iterations, Jacobian evaluations and factorisations,
+//!   `f`/`g` evaluations, node counts per mesh pass, final error estimate, residual, boundary
+//!   residual and two conditioning measures.
+//! * **Progress** ([`solve_with_progress`]): a `FnMut(&Progress)` hook called after every
+//!   accepted Newton step and every mesh pass; the solver itself never prints.
+//!
+//! ```
+//! # use suslov::bvp::{solve_with_progress, BvpProblem, Guess, Options, ProgressEvent};
+//! # struct Sine;
+//! # impl BvpProblem for Sine {
+//! #     fn n(&self) -> usize { 2 }
+//! #     fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) { dy[0] = y[1]; dy[1] = -y[0]; }
+//! #     fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) { r[0] = ya[0]; r[1] = yb[0] - 1.0; }
+//! # }
+//! let guess = Guess::from_fn(&[0.0, 0.5, 1.0, 1.5], 2, vec![], |x, y| { y[0] = x; y[1] = 1.0; });
+//! let mut log = Vec::new();
+//! let sol = solve_with_progress(&Sine, &guess, &Options::default(), &mut |p| {
+//!     if let ProgressEvent::MeshPass { max_error, .. } = p.event {
+//!         log.push(format!("pass {}: {} nodes, max error {max_error:.1e}", p.pass, p.nodes));
+//!     }
+//! })
+//! .unwrap();
+//! assert!(sol.is_success());
+//! assert_eq!(log.len(), sol.stats.mesh_passes);
+//! ```
+//!
 //! # Method: 4-stage Lobatto IIIA collocation (order 6)
 //!
 //! On each interval `[x_i, x_i + h_i]` the solution is a quartic polynomial `u` with
@@ -89,6 +125,15 @@
 //! below the tolerance, with a node cap ([`mesh`]). After convergence the returned solution
 //! is verified again: error estimate, discrete equations and boundary residual must all
 //! meet their tolerances or the status is not [`Status::Converged`].
+//!
+//! A BVP without a solution can still have a discrete "solution" that meets a residual test
+//! (e.g. `y'' + y = 0`, `y(0) = 0`, `y(pi) = 1`: the discrete solution is a huge multiple of
+//! `sin x`). Candidates are therefore also checked for conditioning: the response of the
+//! discrete solution to a unit change of a boundary condition (with one step of iterative
+//! refinement to detect singularity to working precision) and a Hager-Higham estimate of the
+//! condition number of the row-equilibrated Newton matrix; see
+//! [`Options::conditioning_limit`]. With finite-difference Jacobians these measures are less
+//! reliable near singularity (the factored matrix is not the exact Jacobian).
 //!
 //! # References
 //! * U. Ascher, R. Mattheij, R. Russell, *Numerical Solution of Boundary Value Problems for
