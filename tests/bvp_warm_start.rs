@@ -181,3 +181,36 @@ fn statistics_are_consistent() {
     assert_eq!(sol.residuals.len(), sol.num_nodes() - 1);
     assert!(s.condition_estimate.is_finite() && s.bc_condition.is_finite());
 }
+
+#[test]
+fn warm_start_from_over_resolved_mesh_coarsens() {
+    // A tol = 1e-10 solution is over-resolved by about (1e4)^(1/5) = 6x for tol = 1e-6.
+    let (prob, fine) = tanh_cold(1e-10);
+    let opts = Options {
+        tol: 1e-6,
+        ..Options::default()
+    };
+    let sol = solve(&prob, &Guess::from_solution(&fine), &opts).unwrap();
+    assert_eq!(sol.status, Status::Converged, "{}", sol.message());
+    assert!(
+        3 * sol.num_nodes() < fine.num_nodes(),
+        "{} nodes after coarsening, warm start had {} (history {:?})",
+        sol.num_nodes(),
+        fine.num_nodes(),
+        sol.stats.mesh_history
+    );
+    assert!(node_error(&prob, &sol) < 1e-5);
+    assert!(sol.stats.max_error <= 1.0);
+    // Without coarsening the warm-start mesh is kept.
+    let kept = solve(
+        &prob,
+        &Guess::from_solution(&fine),
+        &Options {
+            coarsen: false,
+            ..opts
+        },
+    )
+    .unwrap();
+    assert_eq!(kept.status, Status::Converged);
+    assert_eq!(kept.num_nodes(), fine.num_nodes());
+}

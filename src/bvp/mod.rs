@@ -169,6 +169,9 @@ use problem::Evaluator;
 /// A Jacobian with `cond_1 * eps` above this is numerically singular.
 const NUMERICALLY_SINGULAR: f64 = 1e-3;
 
+/// Coarsening passes after convergence (each at least halves the number of intervals).
+const MAX_COARSENINGS: usize = 3;
+
 /// Consecutive Newton failures (each followed by mesh halving) before giving up.
 const MAX_NEWTON_FAILURES: usize = 4;
 
@@ -359,6 +362,9 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
     let mut failures = 0;
     let mut bc_retry_done = false;
     let mut pass = 0;
+    // The last converged solution, kept while a coarser mesh is tried.
+    let mut fallback: Option<Solution> = None;
+    let mut coarsenings = 0;
     loop {
         let mut col = Collocation::new(n, k, &x);
         let mut sys = GlobalSystem::new(n, k, x.len());
@@ -401,7 +407,25 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         if accurate && !well_posed {
             status = Some(Status::SingularJacobian);
         } else if accurate && est.bc_residual <= options.bc_tol() {
-            status = Some(Status::Converged);
+            let allowed = options.adapt_mesh && options.coarsen && coarsenings < MAX_COARSENINGS;
+            let coarser = (allowed && pass + 1 < options.max_mesh_passes)
+                .then(|| adapt_mesh(&x, &est.errors, order, false))
+                .filter(|nx| 2 * (nx.len() - 1) < x.len() - 1);
+            match coarser {
+                Some(nx) => {
+                    coarsenings += 1;
+                    fallback = Some(build_solution(
+                        &ev,
+                        &mut col,
+                        &u,
+                        est.clone(),
+                        stats.clone(),
+                        Status::Converged,
+                    ));
+                    next_x = Some(nx);
+                }
+                None => status = Some(Status::Converged),
+            }
         } else if accurate && !bc_retry_done {
             bc_retry_done = true;
             next_x = Some(x.clone()); // one more Newton pass on the same mesh
@@ -415,7 +439,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             });
         } else if newton_ok {
             failures = 0;
-            next_x = Some(adapt_mesh(&x, &est.errors, order));
+            next_x = Some(adapt_mesh(&x, &est.errors, order, true));
         } else {
             failures += 1;
             if failures > MAX_NEWTON_FAILURES {
@@ -444,6 +468,27 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             },
         });
         if let Some(status) = status {
+            if let (false, Some(mut sol)) = (status.is_success(), fallback.take()) {
+                // The coarser mesh failed: return the converged solution, with the total work.
+                let Stats {
+                    newton_iterations,
+                    jacobian_evaluations,
+                    factorizations,
+                    mesh_passes,
+                    ..
+                } = stats;
+                sol.stats = Stats {
+                    newton_iterations,
+                    jacobian_evaluations,
+                    factorizations,
+                    mesh_passes,
+                    mesh_history: stats.mesh_history.clone(),
+                    f_evaluations: ev.f_evals.get(),
+                    bc_evaluations: ev.bc_evals.get(),
+                    ..sol.stats
+                };
+                return Ok(sol);
+            }
             if !conditioned {
                 estimate_conditioning(&sys, &col, options, &mut stats);
             }

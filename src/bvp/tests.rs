@@ -281,7 +281,7 @@ fn adapt_mesh_refines_and_merges() {
     let x: Vec<f64> = (0..=8).map(|i| i as f64 / 8.0).collect();
     // Intervals 0..4 far below tolerance, interval 5 far above, 6..8 around the target.
     let errors = [1e-9, 1e-9, 1e-9, 1e-9, 1e-9, 1e3, 0.2, 0.2];
-    let new = adapt_mesh(&x, &errors, 5.0);
+    let new = adapt_mesh(&x, &errors, 5.0, true);
     assert_eq!(new[0], 0.0);
     assert_eq!(*new.last().unwrap(), 1.0);
     assert!(new.windows(2).all(|w| w[1] > w[0]));
