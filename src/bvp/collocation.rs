@@ -17,7 +17,7 @@
 //! ```
 //!
 //! The first `m*n + k` rows/unknowns form the *global* system; the stage rows/unknowns are
-//! eliminated interval by interval (see [`Collocation::evaluate_jacobian`]).
+//! eliminated interval by interval (see `Collocation::evaluate_jacobian`).
 
 use super::dense::{lu_factor, lu_solve, sub_mat_mul};
 use super::problem::{BvpProblem, Evaluator};

@@ -1,17 +1,18 @@
 //! Error estimation and mesh adaptation.
 //!
-//! 1. [`estimate_errors`]: sample the residual `r = u' - f(x, u, p)` of the collocation
+//! 1. `estimate_errors`: sample the residual `r = u' - f(x, u, p)` of the collocation
 //!    polynomial at the three interior 5-point Lobatto points of every interval (it vanishes
 //!    at the four collocation points) and form the per-interval measures of
 //!    [`ErrorControl`]; also verify the discrete equations and the boundary conditions.
-//! 2. [`adapt_mesh`]: equidistribute the predicted number of subintervals. With
+//! 2. `adapt_mesh`: equidistribute the predicted number of subintervals. With
 //!    `e_i ~ C h_i^q` (`q = 5` for error control, 4 for residual control) interval `i` wants
 //!    `m_i = (e_i / target)^(1/q)` subintervals. Intervals far below the tolerance
-//!    (`m_i <= 1/2`) get `m_i = 1/2` (pairs merge: coarsening), intervals in between keep
+//!    (`m_i <= 1/2`: two of them merged would still be below the target) keep their `m_i`,
+//!    but at least 1/4 (at most four merge per pass: coarsening); intervals in between keep
 //!    `m_i = 1`, and `m_i <= 8` per pass (the estimate is asymptotic). The new mesh
 //!    equidistributes the piecewise-constant density `m_i / h_i`.
-//! 3. [`halve_mesh`]: uniform bisection, used when Newton fails on a mesh.
-//! 4. [`transfer_solution`]: move the iterate to a new mesh through the dense output.
+//! 3. `halve_mesh`: uniform bisection, used when Newton fails on a mesh.
+//! 4. `transfer_solution`: move the iterate to a new mesh through the dense output.
 
 use super::collocation::{eval_collocation_polynomial, Collocation};
 use super::options::{ErrorControl, Options};
@@ -21,8 +22,8 @@ use super::problem::{BvpProblem, Evaluator};
 pub(crate) const EQUIDISTRIBUTION_TARGET: f64 = 0.25;
 /// At most this many subintervals are made from one interval per pass.
 const MAX_SPLIT: f64 = 8.0;
-/// Intervals that could be merged in pairs get this weight.
-const MERGE_WEIGHT: f64 = 0.5;
+/// Smallest weight: at most four intervals merge into one per pass.
+const MIN_WEIGHT: f64 = 0.25;
 
 /// Per-interval estimates and the after-the-fact verification of a candidate solution.
 #[derive(Debug, Clone, Default)]
@@ -136,15 +137,19 @@ pub(crate) fn estimate_errors<P: BvpProblem + ?Sized>(
 
 /// Equidistributing refinement and coarsening of `x` from normalised estimates `errors`
 /// (`e_i ~ h_i^order`); see the module docs. Returns the new mesh (same end points).
-pub(crate) fn adapt_mesh(x: &[f64], errors: &[f64], order: f64) -> Vec<f64> {
+///
+/// With `keep_moderate` (refinement passes) intervals with `1/2 < m_i <= 1` keep `m_i = 1`, so
+/// that a refinement pass only merges where the error is far below the target; without it
+/// (coarsening a converged solution) the weights are pure equidistribution.
+pub(crate) fn adapt_mesh(x: &[f64], errors: &[f64], order: f64, keep_moderate: bool) -> Vec<f64> {
     let weights: Vec<f64> = errors
         .iter()
         .map(|&e| {
             let raw = (e / EQUIDISTRIBUTION_TARGET).powf(1.0 / order);
             if raw > 1.0 {
                 raw.min(MAX_SPLIT)
-            } else if raw <= MERGE_WEIGHT {
-                MERGE_WEIGHT
+            } else if raw <= 0.5 || !keep_moderate {
+                raw.max(MIN_WEIGHT)
             } else {
                 1.0
             }

@@ -30,6 +30,42 @@
 //! assert!(again.is_success());
 //! ```
 //!
+//! # Using the API
+//!
+//! * **Guesses** ([`Guess`]): [`Guess::from_values`] (mesh + node values + parameters),
+//!   [`Guess::from_fn`] (a closure sampled on a given mesh, stages included),
+//!   [`Guess::from_solution`] (exact warm start: mesh, node and stage values, parameters) and
+//!   [`Guess::from_solution_on_mesh`] (a previous solution resampled through its dense output);
+//!   [`Guess::with_parameters`] replaces `p` (e.g. a continuation predictor). The solver only
+//!   borrows the guess.
+//! * **Status** ([`Status`]): use [`Solution::is_success`]; [`Status::message`] explains the
+//!   outcome and what to try. A non-converged [`Solution`] still holds the last iterate.
+//! * **Statistics** ([`Stats`]): Newton iterations, Jacobian evaluations and factorisations,
+//!   `f`/`g` evaluations, node counts per mesh pass, final error estimate, residual, boundary
+//!   residual and two conditioning measures.
+//! * **Progress** ([`solve_with_progress`]): a `FnMut(&Progress)` hook called after every
+//!   accepted Newton step and every mesh pass; the solver itself never prints.
+//!
+//! ```
+//! # use suslov::bvp::{solve_with_progress, BvpProblem, Guess, Options, ProgressEvent};
+//! # struct Sine;
+//! # impl BvpProblem for Sine {
+//! #     fn n(&self) -> usize { 2 }
+//! #     fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) { dy[0] = y[1]; dy[1] = -y[0]; }
+//! #     fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) { r[0] = ya[0]; r[1] = yb[0] - 1.0; }
+//! # }
+//! let guess = Guess::from_fn(&[0.0, 0.5, 1.0, 1.5], 2, vec![], |x, y| { y[0] = x; y[1] = 1.0; });
+//! let mut log = Vec::new();
+//! let sol = solve_with_progress(&Sine, &guess, &Options::default(), &mut |p| {
+//!     if let ProgressEvent::MeshPass { max_error, .. } = p.event {
+//!         log.push(format!("pass {}: {} nodes, max error {max_error:.1e}", p.pass, p.nodes));
+//!     }
+//! })
+//! .unwrap();
+//! assert!(sol.is_success());
+//! assert_eq!(log.len(), sol.stats.mesh_passes);
+//! ```
+//!
 //! # Method: 4-stage Lobatto IIIA collocation (order 6)
 //!
 //! On each interval `[x_i, x_i + h_i]` the solution is a quartic polynomial `u` with
@@ -90,6 +126,15 @@
 //! is verified again: error estimate, discrete equations and boundary residual must all
 //! meet their tolerances or the status is not [`Status::Converged`].
 //!
+//! A BVP without a solution can still have a discrete "solution" that meets a residual test
+//! (e.g. `y'' + y = 0`, `y(0) = 0`, `y(pi) = 1`: the discrete solution is a huge multiple of
+//! `sin x`). Candidates are therefore also checked for conditioning: the response of the
+//! discrete solution to a unit change of a boundary condition (with one step of iterative
+//! refinement to detect singularity to working precision) and a Hager-Higham estimate of the
+//! condition number of the row-equilibrated Newton matrix; see
+//! [`Options::conditioning_limit`]. With finite-difference Jacobians these measures are less
+//! reliable near singularity (the factored matrix is not the exact Jacobian).
+//!
 //! # References
 //! * U. Ascher, R. Mattheij, R. Russell, *Numerical Solution of Boundary Value Problems for
 //!   Ordinary Differential Equations*, SIAM 1995 (collocation, condensation, ABD systems).
@@ -123,6 +168,9 @@ use problem::Evaluator;
 
 /// A Jacobian with `cond_1 * eps` above this is numerically singular.
 const NUMERICALLY_SINGULAR: f64 = 1e-3;
+
+/// Coarsening passes after convergence (each at least halves the number of intervals).
+const MAX_COARSENINGS: usize = 3;
 
 /// Check the problem dimensions, the guess and the options.
 fn validate_input<P: BvpProblem + ?Sized>(
@@ -227,6 +275,21 @@ fn initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
     u
 }
 
+/// Fill `stats.bc_condition` and `stats.condition_estimate` from the last factorisation and
+/// return whether the problem counts as well posed at the requested tolerance (see
+/// [`Options::conditioning_limit`]).
+fn estimate_conditioning(
+    sys: &GlobalSystem,
+    col: &Collocation,
+    options: &Options,
+    stats: &mut Stats,
+) -> bool {
+    stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), col.lay.n + col.lay.k);
+    stats.condition_estimate = sys.condition_estimate();
+    stats.bc_condition * options.tol <= options.conditioning_limit
+        && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR
+}
+
 /// Package the iterate `u` on the mesh of `col` as a [`Solution`].
 fn build_solution<P: BvpProblem + ?Sized>(
     ev: &Evaluator<P>,
@@ -296,6 +359,9 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
     let mut failures = 0;
     let mut bc_retry_done = false;
     let mut pass = 0;
+    // The last converged solution, kept while a coarser mesh is tried.
+    let mut fallback: Option<Solution> = None;
+    let mut coarsenings = 0;
     loop {
         let mut col = Collocation::new(n, k, &x);
         let mut sys = GlobalSystem::new(n, k, x.len());
@@ -314,26 +380,49 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         let finish = |status, est, stats, col: &mut Collocation| {
             Ok(build_solution(&ev, col, &u, est, stats, status))
         };
-        match outcome {
-            NewtonOutcome::Singular => {
-                return finish(Status::SingularJacobian, est, stats, &mut col)
-            }
-            NewtonOutcome::NonFinite => return finish(Status::NonFinite, est, stats, &mut col),
-            _ if !finite || !est.finite => return finish(Status::NonFinite, est, stats, &mut col),
-            _ => {}
+        let early = match outcome {
+            NewtonOutcome::Singular => Some(Status::SingularJacobian),
+            NewtonOutcome::NonFinite => Some(Status::NonFinite),
+            _ if !finite || !est.finite => Some(Status::NonFinite),
+            _ => None,
+        };
+        if let Some(status) = early {
+            estimate_conditioning(&sys, &col, options, &mut stats);
+            return finish(status, est, stats, &mut col);
         }
         let newton_ok = outcome == NewtonOutcome::Converged;
-        stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), n + k);
-        stats.condition_estimate = sys.condition_estimate(n, k, x.len());
-        let well_posed = stats.bc_condition * options.tol <= options.conditioning_limit
-            && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR;
         let accurate = newton_ok && est.max_error <= 1.0 && est.max_defect <= 1.0;
+        // Conditioning costs 2(n+k) + ~10 solves: only for candidates and final reports.
+        let mut conditioned = false;
+        let mut well_posed = true;
+        if accurate {
+            well_posed = estimate_conditioning(&sys, &col, options, &mut stats);
+            conditioned = true;
+        }
         let mut next_x = None;
         let mut status = None;
         if accurate && !well_posed {
             status = Some(Status::SingularJacobian);
         } else if accurate && est.bc_residual <= options.bc_tol() {
-            status = Some(Status::Converged);
+            let allowed = options.adapt_mesh && options.coarsen && coarsenings < MAX_COARSENINGS;
+            let coarser = (allowed && pass + 1 < options.max_mesh_passes)
+                .then(|| adapt_mesh(&x, &est.errors, order, false))
+                .filter(|nx| 2 * (nx.len() - 1) < x.len() - 1);
+            match coarser {
+                Some(nx) => {
+                    coarsenings += 1;
+                    fallback = Some(build_solution(
+                        &ev,
+                        &mut col,
+                        &u,
+                        est.clone(),
+                        stats.clone(),
+                        Status::Converged,
+                    ));
+                    next_x = Some(nx);
+                }
+                None => status = Some(Status::Converged),
+            }
         } else if accurate && !bc_retry_done {
             bc_retry_done = true;
             next_x = Some(x.clone()); // one more Newton pass on the same mesh
@@ -347,7 +436,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             });
         } else if newton_ok {
             failures = 0;
-            next_x = Some(adapt_mesh(&x, &est.errors, order));
+            next_x = Some(adapt_mesh(&x, &est.errors, order, true));
         } else {
             failures += 1;
             if failures > options.max_newton_failures {
@@ -376,6 +465,30 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             },
         });
         if let Some(status) = status {
+            if let (false, Some(mut sol)) = (status.is_success(), fallback.take()) {
+                // The coarser mesh failed: return the converged solution, with the total work.
+                let Stats {
+                    newton_iterations,
+                    jacobian_evaluations,
+                    factorizations,
+                    mesh_passes,
+                    ..
+                } = stats;
+                sol.stats = Stats {
+                    newton_iterations,
+                    jacobian_evaluations,
+                    factorizations,
+                    mesh_passes,
+                    mesh_history: stats.mesh_history.clone(),
+                    f_evaluations: ev.f_evals.get(),
+                    bc_evaluations: ev.bc_evals.get(),
+                    ..sol.stats
+                };
+                return Ok(sol);
+            }
+            if !conditioned {
+                estimate_conditioning(&sys, &col, options, &mut stats);
+            }
             return finish(status, est, stats, &mut col);
         }
         let nx = next_x.expect("either a status or a next mesh is set");

@@ -79,7 +79,7 @@ pub(crate) fn scaled_norms(
 }
 
 /// `out = -J^{-1} res` with the current factorisations (condense, global solve, expand).
-fn compute_correction(
+pub(crate) fn compute_correction(
     col: &mut Collocation,
     sys: &GlobalSystem,
     res: &[f64],

@@ -89,6 +89,11 @@ pub struct Options {
     /// only; the status is [`Converged`](super::Status::Converged) if the error estimate meets the
     /// tolerance and [`ToleranceNotMet`](super::Status::ToleranceNotMet) otherwise.
     pub adapt_mesh: bool,
+    /// After convergence, if equidistribution of the error estimates predicts a mesh with
+    /// fewer than half the intervals (e.g. a warm start from a sharper problem), solve again
+    /// on that coarser mesh (at most 3 times); if that fails, the last converged solution is
+    /// returned (default: true).
+    pub coarsen: bool,
     /// Per-component scales `s_j > 0` (typical magnitudes) multiplying `atol` (default: None = 1).
     pub scale: Option<Vec<f64>>,
     /// Where Jacobians come from (default: [`JacobianSource::Analytic`]).
@@ -111,6 +116,7 @@ impl Default for Options {
             reuse_jacobian_below: 0.25,
             conditioning_limit: 100.0,
             adapt_mesh: true,
+            coarsen: true,
             scale: None,
             jacobian: JacobianSource::Analytic,
         }
@@ -145,7 +151,7 @@ impl Options {
         positive("atol", self.atol())?;
         positive("bc_tol", self.bc_tol())?;
         positive("newton_tol", self.newton_tol)?;
-        if !(self.conditioning_limit > 0.0) {
+        if self.conditioning_limit.is_nan() || self.conditioning_limit <= 0.0 {
             return Err(BvpError::InvalidOption {
                 name: "conditioning_limit",
                 value: self.conditioning_limit,

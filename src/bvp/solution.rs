@@ -95,7 +95,8 @@ pub struct Stats {
     pub bc_evaluations: usize,
     /// Mesh passes (Newton solve + error estimate).
     pub mesh_passes: usize,
-    /// Number of nodes of the mesh of every pass, in order.
+    /// Number of nodes of the mesh of every pass, in order. (If a coarsening attempt after
+    /// convergence failed, the returned solution is from the pass before it.)
     pub mesh_history: Vec<usize>,
     /// Largest per-interval error estimate (normalised: `<= 1` meets the tolerance).
     pub max_error: f64,

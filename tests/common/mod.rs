@@ -35,7 +35,15 @@ impl BvpProblem for Linear {
         r[0] = ya[0];
         r[1] = yb[0] - 1.0;
     }
-    fn bc_jac(&self, _ya: &[f64], _yb: &[f64], _p: &[f64], dya: &mut [f64], dyb: &mut [f64], _dp: &mut [f64]) -> bool {
+    fn bc_jac(
+        &self,
+        _ya: &[f64],
+        _yb: &[f64],
+        _p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        _dp: &mut [f64],
+    ) -> bool {
         dya.copy_from_slice(&[1.0, 0.0, 0.0, 0.0]);
         dyb.copy_from_slice(&[0.0, 0.0, 1.0, 0.0]);
         true
@@ -96,7 +104,15 @@ impl BvpProblem for SturmLiouville {
         r[1] = yb[0];
         r[2] = ya[1] - p[0];
     }
-    fn bc_jac(&self, _ya: &[f64], _yb: &[f64], _p: &[f64], dya: &mut [f64], dyb: &mut [f64], dp: &mut [f64]) -> bool {
+    fn bc_jac(
+        &self,
+        _ya: &[f64],
+        _yb: &[f64],
+        _p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        dp: &mut [f64],
+    ) -> bool {
         dya.copy_from_slice(&[1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
         dyb.copy_from_slice(&[0.0, 0.0, 1.0, 0.0, 0.0, 0.0]);
         dp.copy_from_slice(&[0.0, 0.0, -1.0]);
@@ -226,7 +242,9 @@ impl Exact for InteriorLayer {
 
 /// Uniform mesh of `intervals` intervals on `[a, b]`.
 pub fn uniform(a: f64, b: f64, intervals: usize) -> Vec<f64> {
-    (0..=intervals).map(|i| a + (b - a) * i as f64 / intervals as f64).collect()
+    (0..=intervals)
+        .map(|i| a + (b - a) * i as f64 / intervals as f64)
+        .collect()
 }
 
 /// Max over nodes and components of |y - exact| relative to 1 + |exact| (first component
@@ -257,11 +275,21 @@ pub fn dense_error<P: Exact>(prob: &P, sol: &Solution, samples: usize) -> f64 {
 
 /// Solve on a fixed uniform mesh starting from a perturbation-free, exact-solution-free
 /// guess `guess(x)`.
-pub fn solve_fixed<P: Exact>(prob: &P, intervals: usize, guess: &dyn Fn(f64) -> Vec<f64>, p: Vec<f64>) -> Solution {
+pub fn solve_fixed<P: Exact>(
+    prob: &P,
+    intervals: usize,
+    guess: &dyn Fn(f64) -> Vec<f64>,
+    p: Vec<f64>,
+) -> Solution {
     let (a, b) = prob.interval();
     let x = uniform(a, b, intervals);
     let g = Guess::from_fn(&x, prob.n(), p, |t, out| out.copy_from_slice(&guess(t)));
-    let opts = Options { adapt_mesh: false, max_newton_iter: 30, tol: 1e-10, ..Options::default() };
+    let opts = Options {
+        adapt_mesh: false,
+        max_newton_iter: 30,
+        tol: 1e-10,
+        ..Options::default()
+    };
     solve(prob, &g, &opts).expect("valid input")
 }
 

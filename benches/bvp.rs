@@ -1,0 +1,227 @@
+//! Benchmarks of the BVP solver (plain binary, `harness = false`; run with
+//! `cargo bench --bench bvp`). Reports medians of repeated solves; never asserts times.
+//!
+//! 1. The test problems of `tests/common` (same guesses and meshes as
+//!    `bench/scipy_bvp.py`) at tol 1e-6, 1e-8 (as scipy) and 1e-10 (to match scipy's delivered
+//!    accuracy): median time, nodes, Newton iterations,
+//!    f evaluations, max error against the exact solution.
+//! 2. Scaling: one Newton solve of a linear problem on fixed uniform meshes of
+//!    N = 1e2, 1e3, 1e4 intervals (n = 2 and n = 12): time per interval should be flat.
+
+#[path = "../tests/common/mod.rs"]
+mod common;
+
+use common::*;
+use std::time::{Duration, Instant};
+use suslov::bvp::{solve, BvpProblem, Guess, Options, Solution};
+
+/// Median wall time of `f` over repetitions (at least 5, at most 101, about `budget` total).
+fn median_time(budget: Duration, mut f: impl FnMut() -> Solution) -> (Duration, Solution) {
+    let mut times = vec![];
+    let start = Instant::now();
+    let mut last;
+    loop {
+        let t = Instant::now();
+        last = f();
+        times.push(t.elapsed());
+        if (times.len() >= 5 && start.elapsed() > budget) || times.len() >= 101 {
+            break;
+        }
+    }
+    times.sort();
+    (times[times.len() / 2], last)
+}
+
+fn coarse() -> Vec<f64> {
+    uniform(0.0, 1.0, 10)
+}
+
+fn bench_problem<P: Exact>(name: &str, prob: &P, guess: &Guess) {
+    for tol in [1e-6, 1e-8, 1e-10] {
+        let opts = Options {
+            tol,
+            ..Options::default()
+        };
+        let (t, sol) = median_time(Duration::from_millis(400), || {
+            solve(prob, guess, &opts).unwrap()
+        });
+        let mut err = node_error(prob, &sol).max(dense_error(prob, &sol, 2000));
+        for (pv, pe) in sol.p.iter().zip(prob.exact_p()) {
+            err = err.max((pv - pe).abs() / (1.0 + pe.abs()));
+        }
+        println!(
+            "| {name:<22} | {tol:.0e} | {:>10.3} | {:>6} | {:>6} | {:>5} | {:>8} | {:>8.1e} | {:?} |",
+            t.as_secs_f64() * 1e3,
+            sol.num_nodes(),
+            sol.stats.newton_iterations,
+            sol.stats.jacobian_evaluations,
+            sol.stats.f_evaluations,
+            err,
+            sol.status
+        );
+    }
+}
+
+/// Six coupled linear oscillators (n = 12): y_j'' = -w_j^2 y_j + 0.1 (y_{j-1} - 2 y_j + y_{j+1})
+/// + sin(j x); y_j(0) = 1, y_j(1) = 0. Well posed (w_j = j + 1/2 is not a multiple of pi).
+struct Oscillators;
+impl BvpProblem for Oscillators {
+    fn n(&self) -> usize {
+        12
+    }
+    fn f(&self, x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        for j in 0..6 {
+            let w = j as f64 + 0.5;
+            let left = if j > 0 { y[2 * j - 2] } else { 0.0 };
+            let right = if j < 5 { y[2 * j + 2] } else { 0.0 };
+            dy[2 * j] = y[2 * j + 1];
+            dy[2 * j + 1] =
+                -w * w * y[2 * j] + 0.1 * (left - 2.0 * y[2 * j] + right) + (j as f64 * x).sin();
+        }
+    }
+    fn jac(&self, _x: f64, _y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.fill(0.0);
+        for j in 0..6 {
+            let w = j as f64 + 0.5;
+            dfdy[(2 * j) * 12 + 2 * j + 1] = 1.0;
+            dfdy[(2 * j + 1) * 12 + 2 * j] = -w * w - 0.2;
+            if j > 0 {
+                dfdy[(2 * j + 1) * 12 + 2 * j - 2] = 0.1;
+            }
+            if j < 5 {
+                dfdy[(2 * j + 1) * 12 + 2 * j + 2] = 0.1;
+            }
+        }
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        for j in 0..6 {
+            r[j] = ya[2 * j] - 1.0;
+            r[6 + j] = yb[2 * j];
+        }
+    }
+    fn bc_jac(
+        &self,
+        _ya: &[f64],
+        _yb: &[f64],
+        _p: &[f64],
+        dya: &mut [f64],
+        dyb: &mut [f64],
+        _dp: &mut [f64],
+    ) -> bool {
+        dya.fill(0.0);
+        dyb.fill(0.0);
+        for j in 0..6 {
+            dya[j * 12 + 2 * j] = 1.0;
+            dyb[(6 + j) * 12 + 2 * j] = 1.0;
+        }
+        true
+    }
+}
+
+fn bench_scaling<P: BvpProblem>(name: &str, prob: &P) {
+    for intervals in [100, 1_000, 10_000] {
+        let x = uniform(0.0, 1.0, intervals);
+        let guess = Guess::from_values(x.clone(), vec![0.0; x.len() * prob.n()], vec![]);
+        let opts = Options {
+            adapt_mesh: false,
+            tol: 1e-6,
+            ..Options::default()
+        };
+        let (t, sol) = median_time(Duration::from_millis(1500), || {
+            solve(prob, &guess, &opts).unwrap()
+        });
+        println!(
+            "| {name:<14} | {:>6} | {intervals:>7} | {:>10.3} | {:>8.3} | {:>6} | {:>5} | {:?} |",
+            prob.n(),
+            t.as_secs_f64() * 1e3,
+            t.as_secs_f64() * 1e6 / intervals as f64,
+            sol.stats.newton_iterations,
+            sol.stats.factorizations,
+            sol.status
+        );
+    }
+}
+
+/// Warm start cost: re-solve from a converged solution (exact restart) and from a
+/// neighbouring parameter value (one continuation step).
+fn bench_warm_start() {
+    let prob = InteriorLayer { w: 0.01 };
+    let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+        o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
+    });
+    let opts = Options {
+        tol: 1e-8,
+        ..Options::default()
+    };
+    let sol = solve(&prob, &g, &opts).unwrap();
+    let warm = Guess::from_solution(&sol);
+    let (t, s) = median_time(Duration::from_millis(400), || {
+        solve(&prob, &warm, &opts).unwrap()
+    });
+    println!(
+        "| exact restart, tanh w=0.01   | {:>10.3} | {:>6} | {:>6} | {:?} |",
+        t.as_secs_f64() * 1e3,
+        s.num_nodes(),
+        s.stats.newton_iterations,
+        s.status
+    );
+    let next = InteriorLayer { w: 0.0105 };
+    let (t, s) = median_time(Duration::from_millis(400), || {
+        solve(&next, &warm, &opts).unwrap()
+    });
+    println!(
+        "| w 0.01 -> 0.0105, tanh       | {:>10.3} | {:>6} | {:>6} | {:?} |",
+        t.as_secs_f64() * 1e3,
+        s.num_nodes(),
+        s.stats.newton_iterations,
+        s.status
+    );
+}
+
+fn main() {
+    // Optional filter: `cargo bench --bench bvp -- scaling` (or `problems`, `warm`).
+    let filter: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let run =
+        |section: &str| filter.is_empty() || filter.iter().any(|f| section.contains(f.as_str()));
+    if run("problems") {
+        println!("## Test problems (median of repeated cold solves from the same guess)\n");
+        println!("| problem                | tol   | median ms  | nodes  | Newton | Jacs  | f evals  | max err  | status |");
+        println!("|------------------------|-------|------------|--------|--------|-------|----------|----------|--------|");
+        let zero = Guess::from_values(coarse(), vec![0.0; 22], vec![]);
+        bench_problem("linear", &Linear, &zero);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+            o.copy_from_slice(&[4.0 - 3.0 * x, -3.0])
+        });
+        bench_problem("nonlinear y''=1.5y^2", &Quadratic, &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![3.0], |x, o| {
+            o.copy_from_slice(&[(3.0 * x).sin(), 3.0 * (3.0 * x).cos()])
+        });
+        bench_problem("sturm-liouville (k=1)", &SturmLiouville, &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| o.copy_from_slice(&[x, 1.0]));
+        bench_problem("boundary layer 1e-3", &BoundaryLayer { eps: 1e-3 }, &g);
+        bench_problem("bratu lower", &Bratu::new(1.0, 1.0), &zero);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |_, o| o.copy_from_slice(&[3.0, 0.0]));
+        bench_problem("bratu upper", &Bratu::new(1.0, 10.0), &g);
+        let g = Guess::from_fn(&coarse(), 2, vec![], |x, o| {
+            o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
+        });
+        bench_problem("tanh layer w=0.01", &InteriorLayer { w: 0.01 }, &g);
+    }
+    if run("warm") {
+        println!("\n## Warm starts (tol 1e-8)\n");
+        println!("| case                         | median ms  | nodes  | Newton | status |");
+        println!("|------------------------------|------------|--------|--------|--------|");
+        bench_warm_start();
+    }
+    if run("scaling") {
+        println!("\n## Scaling: one Newton solve of a linear problem on a fixed uniform mesh\n");
+        println!("| problem        | n      | N       | median ms  | us/N     | Newton | LUs   | status |");
+        println!("|----------------|--------|---------|------------|----------|--------|-------|--------|");
+        bench_scaling("linear", &Linear);
+        bench_scaling("oscillators", &Oscillators);
+    }
+}
