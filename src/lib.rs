@@ -12,4 +12,5 @@
 pub mod bvp;
 pub mod ivp;
 pub mod model;
+pub mod report;
 pub mod suslov;
