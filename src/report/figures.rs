@@ -8,7 +8,7 @@
 //!
 //! Every file is rendered in memory and then written with [`write_atomic`].
 
-use super::{write_atomic, EnergyEllipsoid, ReportError, TrajectoryTable};
+use super::{norm, write_atomic, EnergyEllipsoid, ReportError, TrajectoryTable};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::{register_font, FontStyle};
@@ -98,6 +98,9 @@ impl Figure {
     }
 }
 
+/// Default `(yaw, pitch)` of the 3-D figure.
+pub const DEFAULT_VIEW_3D: (f64, f64) = (-0.5, 0.35);
+
 /// How to draw the figures of one case.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FigureOptions {
@@ -114,6 +117,9 @@ pub struct FigureOptions {
     /// Ω_d and a yellow marker shows Ω_d(b), the last row of the table (as in the paper's
     /// figure 5.3a).
     pub desired_extended: Option<Vec<[f64; 3]>>,
+    /// View of the 3-D figure: `(yaw, pitch)` in radians (plotters' projection angles; yaw
+    /// turns about the vertical Ω₃ axis, pitch tilts towards a view from above).
+    pub view_3d: (f64, f64),
 }
 
 impl FigureOptions {
@@ -125,6 +131,7 @@ impl FigureOptions {
             format: FigureFormat::Png,
             size: (1200, 900),
             desired_extended: None,
+            view_3d: DEFAULT_VIEW_3D,
         }
     }
 }
@@ -230,13 +237,16 @@ fn render_figure(
     let (w, h) = opts.size;
     match opts.format {
         FigureFormat::Png => {
-            let mut rgb = vec![0u8; w as usize * h as usize * 3];
+            // Drawn at SUPERSAMPLE times the size and averaged down: plotters' bitmap lines
+            // are not anti-aliased.
+            let (sw, sh) = (w * SUPERSAMPLE, h * SUPERSAMPLE);
+            let mut big = vec![0u8; sw as usize * sh as usize * 3];
             {
-                let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+                let root = BitMapBackend::with_buffer(&mut big, (sw, sh)).into_drawing_area();
                 draw(&root, figure, table, opts)?;
                 root.present().map_err(|e| e.to_string())?;
             }
-            encode_png(&rgb, w, h)
+            encode_png(&downsample(&big, w, h, SUPERSAMPLE), w, h)
         }
         FigureFormat::Svg => {
             let mut svg = String::new();
@@ -248,6 +258,32 @@ fn render_figure(
             Ok(svg.into_bytes())
         }
     }
+}
+
+/// Supersampling factor of PNG rendering.
+const SUPERSAMPLE: u32 = 2;
+
+/// Box-filters an RGB image of size `(w·k) × (h·k)` down to `w × h`.
+fn downsample(big: &[u8], w: u32, h: u32, k: u32) -> Vec<u8> {
+    let (w, h, k) = (w as usize, h as usize, k as usize);
+    let big_w = w * k;
+    let mut out = vec![0u8; w * h * 3];
+    for y in 0..h {
+        for x in 0..w {
+            for c in 0..3 {
+                let mut sum = 0u32;
+                for dy in 0..k {
+                    let row = (y * k + dy) * big_w;
+                    for dx in 0..k {
+                        sum += u32::from(big[(row + x * k + dx) * 3 + c]);
+                    }
+                }
+                let n = (k * k) as u32;
+                out[(y * w + x) * 3 + c] = ((sum + n / 2) / n) as u8;
+            }
+        }
+    }
+    out
 }
 
 fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, String> {
@@ -442,22 +478,101 @@ fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
     (lo - 0.05 * span, hi + 0.05 * span)
 }
 
-/// Tick label for a value on an axis spanning `span`: fixed notation with enough decimals,
-/// or scientific notation for very small or large magnitudes.
-fn tick_label(v: f64, span: f64, magnitude: f64) -> String {
-    if v == 0.0 {
-        return "0".to_string();
+/// Maximum number of tick labels per axis.
+const MAX_TICKS: usize = 10;
+
+/// The tick step plotters chooses for `[lo, hi]` with at most `max_points` ticks (the same
+/// search as its `f64` key points: 1, 2 or 5 times a power of ten).
+fn tick_step(lo: f64, hi: f64, max_points: usize) -> f64 {
+    let span = hi - lo;
+    if !(span > 0.0 && span.is_finite()) {
+        return 1.0;
     }
-    if magnitude >= 1e5 || magnitude < 1e-3 || span < 1e-4 * magnitude {
-        let digits = if span < 1e-4 * magnitude {
-            ((magnitude / span).log10().ceil() as usize).clamp(1, 12)
-        } else {
-            1
-        };
-        return format!("{v:.digits$e}");
+    let mut scale = 10f64.powf(span.log10().floor());
+    if 1.0 + (span / scale).floor() > max_points as f64 {
+        scale *= 10.0;
     }
-    let digits = (-(span / 10.0).log10()).ceil().clamp(0.0, 8.0) as usize;
+    for _ in 0..64 {
+        let old = scale;
+        for nxt in [2.0, 5.0, 10.0] {
+            let step = old / nxt;
+            let left = (lo / step).ceil() * step;
+            let right = (hi / step).floor() * step;
+            if (1.0 + (right - left) / step).round() > max_points as f64 {
+                return scale;
+            }
+            scale = step;
+        }
+    }
+    scale
+}
+
+/// Tick label with as many decimals as the tick step needs (and no `-0`).
+fn tick_label(v: f64, step: f64) -> String {
+    let digits = (-step.log10() - 1e-9).ceil().clamp(0.0, 12.0) as usize;
+    let v = if v.abs() < 1e-6 * step { 0.0 } else { v };
     format!("{v:.digits$}")
+}
+
+/// `10^e` written with Unicode superscripts, e.g. `10⁻¹²`.
+fn power_of_ten(e: i32) -> String {
+    const SUP: [char; 10] = ['⁰', '¹', '²', '³', '⁴', '⁵', '⁶', '⁷', '⁸', '⁹'];
+    let mut s = String::from("10");
+    if e < 0 {
+        s.push('⁻');
+    }
+    for c in e.unsigned_abs().to_string().chars() {
+        s.push(SUP[c.to_digit(10).unwrap_or(0) as usize]);
+    }
+    s
+}
+
+/// The power of ten by which values of this magnitude are divided for plotting (0 when they
+/// read well as they are).
+fn display_exponent(magnitude: f64) -> i32 {
+    if magnitude > 0.0 && magnitude.is_finite() && !(1e-2..1e4).contains(&magnitude) {
+        magnitude.log10().floor() as i32
+    } else {
+        0
+    }
+}
+
+/// Legend corners, tried in this order.
+const LEGEND_CORNERS: [SeriesLabelPosition; 4] = [
+    SeriesLabelPosition::UpperRight,
+    SeriesLabelPosition::LowerRight,
+    SeriesLabelPosition::UpperLeft,
+    SeriesLabelPosition::LowerLeft,
+];
+
+/// The corner whose legend-sized box covers the fewest data points (`points` in `[0,1]²`,
+/// y upwards).
+fn best_legend_corner(points: &[(f64, f64)], entries: usize) -> SeriesLabelPosition {
+    let w = 0.24;
+    let h = (0.07 * entries as f64 + 0.04).min(0.9);
+    let count = |right: bool, upper: bool| {
+        points
+            .iter()
+            .filter(|(u, v)| {
+                let in_u = if right { *u >= 1.0 - w } else { *u <= w };
+                let in_v = if upper { *v >= 1.0 - h } else { *v <= h };
+                in_u && in_v
+            })
+            .count()
+    };
+    let counts = [
+        count(true, true),
+        count(true, false),
+        count(false, true),
+        count(false, false),
+    ];
+    let mut best = 0;
+    for k in 1..4 {
+        if counts[k] < counts[best] {
+            best = k;
+        }
+    }
+    LEGEND_CORNERS[best].clone()
 }
 
 fn draw_time_series<DB: DrawingBackend>(
@@ -469,30 +584,34 @@ fn draw_time_series<DB: DrawingBackend>(
     end_markers: bool,
     opts: &FigureOptions,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let f = Fonts::for_size(opts.size);
+    let f = Fonts::for_size(root.dim_in_pixel());
     let (t0, t1) = finite_range(series.iter().flat_map(|s| s.t.iter())).unwrap_or((0.0, 1.0));
     let (t0, t1) = if t1 > t0 { (t0, t1) } else { padded((t0, t1)) };
     let data = finite_range(series.iter().flat_map(|s| s.y.iter()));
+    let magnitude = data.map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()));
+    // Very small or large values are plotted in units of 10^e (plotters' tick search needs
+    // O(1) numbers; the constraint is ~1e-12).
+    let e = display_exponent(magnitude);
+    let unit = 10f64.powi(e);
     let (y0, y1) = match y_axis {
         YAxis::Symmetric => {
-            let m = data.map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()));
-            let m = if m > 0.0 { 1.15 * m } else { 1e-16 };
+            let m = magnitude / unit;
+            let m = if m > 0.0 { 1.15 * m } else { 1.0 };
             (-m, m)
         }
-        YAxis::Auto => padded(data.unwrap_or((-1.0, 1.0))),
+        YAxis::Auto => padded(data.map_or((-1.0, 1.0), |(lo, hi)| (lo / unit, hi / unit))),
     };
-    let span = y1 - y0;
-    let magnitude = y0.abs().max(y1.abs());
-    let y_fmt = move |v: &f64| match y_axis {
-        YAxis::Symmetric if *v == 0.0 => "0".to_string(),
-        YAxis::Symmetric => format!("{v:.1e}"),
-        YAxis::Auto => tick_label(*v, span, magnitude),
+    let y_desc = if e == 0 {
+        y_desc.to_string()
+    } else {
+        format!("{y_desc}  [×{}]", power_of_ten(e))
     };
-    let t_span = t1 - t0;
-    let t_fmt = move |v: &f64| tick_label(*v, t_span, t0.abs().max(t1.abs()));
+    let y_step = tick_step(y0, y1, MAX_TICKS);
+    let t_step = tick_step(t0, t1, MAX_TICKS);
+    let y_fmt = move |v: &f64| tick_label(*v, y_step);
+    let t_fmt = move |v: &f64| tick_label(*v, t_step);
 
-    let (_, h) = opts.size;
-    let hs = f64::from(h) / 900.0;
+    let hs = f64::from(root.dim_in_pixel().1) / 900.0;
     let mut chart = ChartBuilder::on(root)
         .caption(caption, (FAMILY, f.title))
         .margin((20.0 * hs) as u32)
@@ -503,47 +622,81 @@ fn draw_time_series<DB: DrawingBackend>(
         .configure_mesh()
         .x_desc("t")
         .y_desc(y_desc)
+        .x_labels(MAX_TICKS)
+        .y_labels(MAX_TICKS)
         .axis_desc_style((FAMILY, f.desc))
         .label_style((FAMILY, f.label))
         .x_label_formatter(&t_fmt)
         .y_label_formatter(&y_fmt)
-        .light_line_style(BLACK.mix(0.05))
+        .light_line_style(BLACK.mix(0.04))
         .bold_line_style(BLACK.mix(0.15))
         .draw()?;
 
-    let width = (2.5 * hs).max(1.0) as u32;
+    // Noise-like data (the constraint) reads better with a thinner line.
+    let line_px = if y_axis == YAxis::Symmetric { 1.5 } else { 2.5 };
+    let width = (line_px * hs).max(1.0) as u32;
+    let legend_len = (44.0 * hs) as i32;
+    let (plot_w, plot_h) = chart.plotting_area().dim_in_pixel();
+    let px_per_t = f64::from(plot_w) / (t1 - t0);
+    let px_per_y = f64::from(plot_h) / (y1 - y0);
+    let mut unit_points = Vec::new();
     for s in series {
         let style = s.color.stroke_width(width);
         let mut first = true;
         for run in finite_runs(s.t, s.y) {
+            let run: Vec<(f64, f64)> = run.into_iter().map(|(a, b)| (a, b / unit)).collect();
+            let run = thin_out(&run, 1.5 * hs, |p, q| {
+                (((p.0 - q.0) * px_per_t).powi(2) + ((p.1 - q.1) * px_per_y).powi(2)).sqrt()
+            });
+            unit_points.extend(
+                run.iter()
+                    .map(|&(a, b)| ((a - t0) / (t1 - t0), (b - y0) / (y1 - y0))),
+            );
             let anno = if s.dashed {
                 let dash = (14.0 * hs) as u32;
                 chart.draw_series(DashedLineSeries::new(run, dash, dash * 2 / 3, style))?
             } else {
-                chart.draw_series(LineSeries::new(run, style))?
+                // Segment by segment with round joins: plotters joins wide polylines with
+                // unlimited miters, which shoot far out of the plot at the sharp turns of
+                // noisy data (the constraint is rounding noise).
+                let join = (f64::from(width) / 2.0).floor() as i32;
+                if join >= 1 {
+                    chart
+                        .draw_series(run.iter().map(|&p| Circle::new(p, join, s.color.filled())))?;
+                }
+                chart.draw_series(
+                    run.windows(2)
+                        .map(|w| PathElement::new(vec![w[0], w[1]], style)),
+                )?
             };
             if first {
                 let dashed = s.dashed;
                 let c = s.color;
-                let len = (40.0 * hs) as i32;
                 anno.label(s.name).legend(move |(x, y)| {
+                    let style = c.stroke_width(width);
                     if dashed {
-                        PathElement::new(vec![(x, y), (x + len / 3, y)], c.stroke_width(width))
+                        let d = legend_len * 2 / 5;
+                        EmptyElement::at((x, y))
+                            + PathElement::new(vec![(0, 0), (d, 0)], style)
+                            + PathElement::new(vec![(legend_len - d, 0), (legend_len, 0)], style)
                     } else {
-                        PathElement::new(vec![(x, y), (x + len, y)], c.stroke_width(width))
+                        EmptyElement::at((x, y))
+                            + PathElement::new(vec![(0, 0), (legend_len, 0)], style)
+                            + PathElement::new(vec![(0, 0), (0, 0)], style)
                     }
                 });
                 first = false;
             }
         }
     }
+    let mut entries = series.len();
     if end_markers {
         let r = (7.0 * hs).max(2.0) as i32;
         for s in series {
             let pts: Vec<(f64, f64)> =
                 s.t.iter()
                     .zip(s.y)
-                    .map(|(&a, &b)| (a, b))
+                    .map(|(&a, &b)| (a, b / unit))
                     .filter(|(a, b)| a.is_finite() && b.is_finite())
                     .collect();
             if let (Some(&p), Some(&q)) = (pts.first(), pts.last()) {
@@ -556,19 +709,22 @@ fn draw_time_series<DB: DrawingBackend>(
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
             .label("start")
-            .legend(move |(x, y)| Circle::new((x + r, y), r, START_COLOR.filled()));
+            .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), r, START_COLOR.filled()));
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
             .label("end")
-            .legend(move |(x, y)| Circle::new((x + r, y), r, END_COLOR.filled()));
+            .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), r, END_COLOR.filled()));
+        entries += 2;
     }
-    if series.len() > 1 || end_markers {
+    if entries > 1 {
         chart
             .configure_series_labels()
             .label_font((FAMILY, f.legend))
-            .background_style(WHITE.mix(0.85))
+            .legend_area_size(legend_len + (12.0 * hs) as i32)
+            .margin((15.0 * hs) as u32)
+            .background_style(WHITE.mix(0.9))
             .border_style(BLACK.mix(0.4))
-            .position(SeriesLabelPosition::UpperRight)
+            .position(best_legend_corner(&unit_points, entries))
             .draw()?;
     }
     Ok(())
@@ -615,10 +771,25 @@ fn ellipsoid_wireframe(
     lines
 }
 
-/// Chart coordinates of a body vector: x = Ω₁, y (vertical in plotters' 3-D view) = Ω₃,
-/// z = Ω₂.
+/// Chart coordinates of a body vector: plotters' (x, y, z) with y vertical is right-handed
+/// on screen, so the cyclic permutation x = Ω₂, y = Ω₃ (up), z = Ω₁ keeps the figure
+/// un-mirrored.
 fn to_chart(v: [f64; 3]) -> (f64, f64, f64) {
-    (v[0], v[2], v[1])
+    (v[1], v[2], v[0])
+}
+
+/// Drops points closer than `min_dist` to the previously kept one (the last point is always
+/// kept): plotters draws wide polylines segment by segment, and sub-pixel segments make
+/// them ragged.
+fn thin_out<P: Copy>(points: &[P], min_dist: f64, dist: impl Fn(P, P) -> f64) -> Vec<P> {
+    let mut out: Vec<P> = Vec::with_capacity(points.len());
+    for (i, &p) in points.iter().enumerate() {
+        match out.last() {
+            Some(&q) if i + 1 < points.len() && dist(p, q) < min_dist => {}
+            _ => out.push(p),
+        }
+    }
+    out
 }
 
 fn draw_omega_3d<DB: DrawingBackend>(
@@ -626,9 +797,8 @@ fn draw_omega_3d<DB: DrawingBackend>(
     table: &TrajectoryTable,
     opts: &FigureOptions,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let f = Fonts::for_size(opts.size);
-    let (_, h) = opts.size;
-    let hs = f64::from(h) / 900.0;
+    let f = Fonts::for_size(root.dim_in_pixel());
+    let hs = f64::from(root.dim_in_pixel().1) / 900.0;
     let e = &opts.ellipsoid;
     let omega: Vec<[f64; 3]> = table
         .omega
@@ -655,16 +825,17 @@ fn draw_omega_3d<DB: DrawingBackend>(
         .fold(0.0f64, |m, c| m.max(c.abs()));
     let r = 1.08 * e.semi_axes().iter().fold(data_max, |m, &a| m.max(a));
 
-    let root = root.titled(
-        &format!("Ω, Ω_d and ξ_∥ on the energy ellipsoid ({})", opts.title),
-        (FAMILY, f.title),
-    )?;
-    let mut chart = ChartBuilder::on(&root)
+    let mut chart = ChartBuilder::on(root)
+        .caption(
+            format!("Ω, Ω_d and ξ_∥ on the energy ellipsoid E ({})", opts.title),
+            (FAMILY, f.title),
+        )
         .margin((10.0 * hs) as u32)
         .build_cartesian_3d(-r..r, -r..r, -r..r)?;
+    let (yaw, pitch) = opts.view_3d;
     chart.with_projection(|mut pb| {
-        pb.yaw = 0.75;
-        pb.pitch = 0.35;
+        pb.yaw = yaw;
+        pb.pitch = pitch;
         pb.scale = 0.9;
         pb.into_matrix()
     });
@@ -705,14 +876,18 @@ fn draw_omega_3d<DB: DrawingBackend>(
     let width = (2.5 * hs).max(1.0) as u32;
     let legend_len = (40.0 * hs) as i32;
     let curves: [(&str, &Vec<[f64; 3]>, RGBColor); 3] = [
-        ("Ω", &omega, OMEGA_COLOR),
-        ("Ω_d", &desired, DESIRED_COLOR),
-        ("ξ_∥", &xi_par, XI_COLOR),
+        ("Ω (optimal)", &omega, OMEGA_COLOR),
+        ("Ω_d (desired)", &desired, DESIRED_COLOR),
+        ("ξ_∥ (control, on E)", &xi_par, XI_COLOR),
     ];
     for (name, pts, color) in curves {
         chart
             .draw_series(LineSeries::new(
-                pts.iter().copied().map(to_chart),
+                thin_out(pts, 0.006 * r, |a, b| {
+                    norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+                })
+                .into_iter()
+                .map(to_chart),
                 color.stroke_width(width),
             ))?
             .label(name)
@@ -732,11 +907,11 @@ fn draw_omega_3d<DB: DrawingBackend>(
     chart
         .draw_series(std::iter::empty::<Circle<(f64, f64, f64), i32>>())?
         .label("start")
-        .legend(move |(x, y)| Circle::new((x + rad, y), rad, START_COLOR.filled()));
+        .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), rad, START_COLOR.filled()));
     chart
         .draw_series(std::iter::empty::<Circle<(f64, f64, f64), i32>>())?
         .label("end")
-        .legend(move |(x, y)| Circle::new((x + rad, y), rad, END_COLOR.filled()));
+        .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), rad, END_COLOR.filled()));
     if opts.desired_extended.is_some() {
         if let Some(&b) = table
             .omega_d
@@ -751,13 +926,17 @@ fn draw_omega_3d<DB: DrawingBackend>(
                     YELLOW_MARKER.filled().stroke_width(1),
                 )))?
                 .label("Ω_d(b)")
-                .legend(move |(x, y)| Circle::new((x + rad, y), rad, YELLOW_MARKER.filled()));
+                .legend(move |(x, y)| {
+                    Circle::new((x + legend_len / 2, y), rad, YELLOW_MARKER.filled())
+                });
         }
     }
     chart
         .configure_series_labels()
         .label_font((FAMILY, f.legend))
-        .background_style(WHITE.mix(0.85))
+        .legend_area_size(legend_len + (12.0 * hs) as i32)
+        .margin((15.0 * hs) as u32)
+        .background_style(WHITE.mix(0.9))
         .border_style(BLACK.mix(0.4))
         .position(SeriesLabelPosition::UpperLeft)
         .draw()?;
