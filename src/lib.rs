@@ -13,4 +13,5 @@ pub mod bvp;
 pub mod continuation;
 pub mod ivp;
 pub mod model;
+pub mod report;
 pub mod suslov;

@@ -1,0 +1,39 @@
+//! The output layer: files a person or a script reads after a run.
+//!
+//! It knows nothing about how solutions are computed: it takes plain data, a
+//! [`TrajectoryTable`] per case (the solution sampled on an output grid) and a [`Summary`]
+//! of all cases, and writes
+//!
+//! - `trajectory.csv`-style tables ([`write_trajectory_csv`]): header
+//!   [`TRAJECTORY_CSV_HEADER`], shortest round-trip `f64` text, so values read back exactly;
+//! - a JSON summary ([`write_summary_json`]): pretty-printed, non-finite numbers as `null`;
+//! - the figures of section 5.3 of the paper ([`write_case_figures`]): `omega_3d`,
+//!   `constraint`, `xi_norm`, `kappa` and `omega`, as PNG by default (text drawn from an
+//!   embedded font, so no system font library is needed) or SVG.
+//!
+//! Every file is written with [`write_atomic`] (temporary file in the same directory, fsync,
+//! rename): a reader never sees a half-written file, and a failed write leaves the previous
+//! file in place and no temporary behind. File writers do **not** create missing parent
+//! directories (that is an [`ReportError::Io`] naming the path); only
+//! [`write_case_figures`], which owns its output directory, creates it.
+
+mod atomic;
+mod csv;
+mod error;
+mod figures;
+mod summary;
+mod table;
+
+pub use atomic::write_atomic;
+pub use csv::{
+    parse_trajectory_csv, trajectory_csv_string, write_trajectory_csv, TRAJECTORY_CSV_HEADER,
+};
+pub use error::ReportError;
+pub use figures::{
+    render_figure_bytes, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
+};
+pub use summary::{
+    finite_or_null, opt_finite_or_null, write_summary_json, CaseSummary, StabilityRun,
+    StageSummary, Summary,
+};
+pub use table::{dot, norm, EnergyEllipsoid, TableStats, TrajectoryTable};

@@ -1,0 +1,201 @@
+//! The machine-readable run summary (`summary.json`).
+//!
+//! JSON has no NaN or infinity. Every `f64` here is serialised through
+//! [`finite_or_null`]: a non-finite value becomes `null` (and `null` reads back as NaN), so
+//! a failed or partial case still produces valid JSON that says "no number here".
+
+use super::{write_atomic, ReportError};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// The whole run: one entry per solved case.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct Summary {
+    /// The cases, in the order they were run.
+    pub cases: Vec<CaseSummary>,
+}
+
+/// The outcome of one case (for example `eta = 1`).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CaseSummary {
+    /// Case name, e.g. `"eta = 1"`.
+    pub name: String,
+    /// The cost weight `η` of this case.
+    #[serde(with = "finite_or_null")]
+    pub eta: f64,
+    /// Optimal terminal time `b`.
+    #[serde(with = "finite_or_null")]
+    pub terminal_time: f64,
+    /// Value of the cost functional at the solution.
+    #[serde(with = "finite_or_null")]
+    pub cost: f64,
+    /// `max_t |⟨Ω, ξ⟩|` on the output grid.
+    #[serde(with = "finite_or_null")]
+    pub max_abs_constraint: f64,
+    /// `min_t |ξ|`.
+    #[serde(with = "finite_or_null")]
+    pub xi_norm_min: f64,
+    /// `max_t |ξ|`.
+    #[serde(with = "finite_or_null")]
+    pub xi_norm_max: f64,
+    /// Relative drift of the kinetic energy `⟨Ω, IΩ⟩` over the trajectory.
+    #[serde(with = "finite_or_null")]
+    pub energy_drift: f64,
+    /// `|Ω(b) − Ω_b|`.
+    #[serde(with = "finite_or_null")]
+    pub omega_b_error: f64,
+    /// Largest residual (collocation / boundary conditions) reported by the solver.
+    #[serde(with = "finite_or_null")]
+    pub max_residual: f64,
+    /// Number of mesh nodes of the final solution.
+    pub mesh_nodes: usize,
+    /// Total number of continuation steps over all stages.
+    pub continuation_steps: usize,
+    /// Total number of Newton iterations over all stages.
+    pub newton_iterations: usize,
+    /// Wall-clock time of the case, seconds.
+    #[serde(with = "finite_or_null")]
+    pub wall_seconds: f64,
+    /// `"converged"`, or `"partial: <reason>"` when the case stopped early.
+    pub status: String,
+    /// A-posteriori check: largest difference between the solution and the states obtained by
+    /// re-integrating the equations of motion as an initial value problem with the computed
+    /// control (absent if not done).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "opt_finite_or_null"
+    )]
+    pub reintegration_max_diff: Option<f64>,
+    /// Stability experiment: perturbed-control re-integrations (empty if not done).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub stability: Vec<StabilityRun>,
+    /// The continuation stages, in order.
+    #[serde(default)]
+    pub stages: Vec<StageSummary>,
+    /// Anything else worth recording (free-form; serde_json stores non-finite numbers as
+    /// `null` here too).
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub extra: serde_json::Map<String, serde_json::Value>,
+}
+
+/// One continuation stage, e.g. `β` from `β_m` to `β`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct StageSummary {
+    /// Stage name, e.g. `"beta"`.
+    pub name: String,
+    /// The continued parameter, e.g. `"beta"` or `"delta"`.
+    pub parameter: String,
+    /// Start value of the parameter.
+    #[serde(with = "finite_or_null")]
+    pub from: f64,
+    /// End value of the parameter reached (the target if the stage completed).
+    #[serde(with = "finite_or_null")]
+    pub to: f64,
+    /// Accepted continuation steps.
+    pub steps: usize,
+    /// Newton iterations spent in this stage.
+    pub newton_iterations: usize,
+    /// Failed steps that were recovered (e.g. by halving the step or refining the mesh).
+    pub failures_recovered: usize,
+}
+
+/// One run of the stability experiment: the control `ξ̇` is perturbed and the pure equations
+/// of motion are re-integrated.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct StabilityRun {
+    /// Label of the perturbation, e.g. `"relative 1e-3, seed 1"`.
+    pub label: String,
+    /// Size of the perturbation (meaning given by `label`).
+    #[serde(with = "finite_or_null")]
+    pub perturbation: f64,
+    /// `max_t |Ω_perturbed − Ω|`.
+    #[serde(with = "finite_or_null")]
+    pub max_omega_diff: f64,
+    /// `max_t |ξ_perturbed − ξ|`.
+    #[serde(with = "finite_or_null")]
+    pub max_xi_diff: f64,
+    /// `|Ω_perturbed(b) − Ω(b)|`.
+    #[serde(with = "finite_or_null")]
+    pub final_omega_diff: f64,
+}
+
+impl Summary {
+    /// Pretty-printed JSON text (two-space indent, trailing newline).
+    ///
+    /// # Errors
+    /// The serde_json error (not expected for these types).
+    pub fn to_json_string(&self) -> Result<String, serde_json::Error> {
+        let mut s = serde_json::to_string_pretty(self)?;
+        s.push('\n');
+        Ok(s)
+    }
+}
+
+/// Writes `summary` to `path` as pretty-printed JSON, atomically (see [`write_atomic`]; the
+/// parent directory must exist). Non-finite numbers are written as `null`.
+///
+/// # Errors
+/// [`ReportError::Json`] or [`ReportError::Io`], both naming `path`.
+pub fn write_summary_json(path: impl AsRef<Path>, summary: &Summary) -> Result<(), ReportError> {
+    let path = path.as_ref();
+    let text = summary
+        .to_json_string()
+        .map_err(|source| ReportError::Json {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    write_atomic(path, text.as_bytes())
+}
+
+/// Serde adapter for `f64`: finite values as numbers, NaN and ±infinity as `null`; `null`
+/// deserialises to NaN. Use as `#[serde(with = "finite_or_null")]`.
+pub mod finite_or_null {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Serialises a finite value as a number and a non-finite one as `null`.
+    ///
+    /// # Errors
+    /// Whatever the serializer reports.
+    pub fn serialize<S: Serializer>(v: &f64, s: S) -> Result<S::Ok, S::Error> {
+        if v.is_finite() {
+            s.serialize_f64(*v)
+        } else {
+            s.serialize_none()
+        }
+    }
+
+    /// Deserialises a number, or `null` as NaN.
+    ///
+    /// # Errors
+    /// Whatever the deserializer reports for a value that is neither a number nor `null`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+}
+
+/// Serde adapter for `Option<f64>` fields that are skipped when `None`: `Some(finite)` as a
+/// number, `Some(non-finite)` as `null`; `null` reads back as `Some(NaN)` and an absent field
+/// (with `#[serde(default)]`) as `None`.
+pub mod opt_finite_or_null {
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    /// Serialises `Some(v)` like [`super::finite_or_null::serialize`], `None` as `null`.
+    ///
+    /// # Errors
+    /// Whatever the serializer reports.
+    pub fn serialize<S: Serializer>(v: &Option<f64>, s: S) -> Result<S::Ok, S::Error> {
+        match v {
+            Some(x) => super::finite_or_null::serialize(x, s),
+            None => s.serialize_none(),
+        }
+    }
+
+    /// Deserialises a number as `Some`, `null` as `Some(NaN)`.
+    ///
+    /// # Errors
+    /// Whatever the deserializer reports for a value that is neither a number nor `null`.
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<f64>, D::Error> {
+        Ok(Some(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN)))
+    }
+}
