@@ -9,6 +9,7 @@
 //!   Jacobians, *generated* from first principles by the sympy program in `codegen/`.
 //! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov.
 
+pub mod app;
 pub mod bvp;
 pub mod continuation;
 pub mod ivp;

@@ -1,3 +1,153 @@
-fn main() {
-    println!("suslov {}", env!("CARGO_PKG_VERSION"));
+//! `suslov`: the command line, a thin shell over [`suslov::app`].
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+use indicatif::{ProgressBar, ProgressStyle};
+use suslov::app::{self, AppEvent};
+use suslov::suslov::solve::Event;
+
+#[derive(Parser)]
+#[command(name = "suslov", version, about = "Optimal control of Suslov's problem: the constraint is the control")]
+struct Cli {
+    /// Print nothing but errors.
+    #[arg(short, long, global = true)]
+    quiet: bool,
+    /// Print every continuation step (also on a terminal).
+    #[arg(short, long, global = true)]
+    verbose: bool,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Reproduce the paper (section 5.3): both cases (eta = 1 and eta = 0.01), verified,
+    /// with summary.json, trajectory.csv and figures under DIR.
+    Paper {
+        /// Output directory (created if missing).
+        #[arg(long, default_value = "out")]
+        out: PathBuf,
+    },
+}
+
+/// Progress on stderr: a spinner per case on a terminal, log lines otherwise.
+struct Reporter {
+    quiet: bool,
+    verbose: bool,
+    bar: Option<ProgressBar>,
+    terminal: bool,
+}
+
+impl Reporter {
+    fn line(&self, text: String) {
+        if self.quiet {
+            return;
+        }
+        match &self.bar {
+            Some(bar) => bar.println(text),
+            None => eprintln!("{text}"),
+        }
+    }
+
+    fn event(&mut self, e: AppEvent) {
+        match e {
+            AppEvent::CaseStarted { name } => {
+                if self.terminal && !self.quiet {
+                    let bar = ProgressBar::new_spinner();
+                    bar.set_style(
+                        ProgressStyle::with_template("{spinner} {prefix} {wide_msg} [{elapsed}]")
+                            .expect("valid template"),
+                    );
+                    bar.set_prefix(name.to_string());
+                    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+                    self.bar = Some(bar);
+                } else {
+                    self.line(format!("case {name}: solving"));
+                }
+            }
+            AppEvent::Solve(Event::StageStarted { name, from, to }) => {
+                let text = format!("  stage {name}: {from:.6} -> {to:.6}");
+                if let Some(bar) = &self.bar {
+                    bar.set_message(text.trim().to_string());
+                }
+                if self.verbose || self.bar.is_none() {
+                    self.line(text);
+                }
+            }
+            AppEvent::Solve(Event::Step { stage, record }) => {
+                let text = format!(
+                    "    {stage} lambda = {:.4}: {} ({} Newton iterations, {} nodes)",
+                    record.lambda,
+                    if record.accepted {
+                        "accepted".to_string()
+                    } else {
+                        format!("rejected, {:?}", record.status)
+                    },
+                    record.newton_iterations,
+                    record.nodes
+                );
+                if let Some(bar) = &self.bar {
+                    bar.set_message(text.trim().to_string());
+                }
+                if self.verbose {
+                    self.line(text);
+                }
+            }
+            AppEvent::Solve(Event::StageFinished(r)) => {
+                if self.verbose || self.bar.is_none() {
+                    self.line(format!(
+                        "  stage {} done: {} steps, {} recovered failures, {} Newton iterations, {} nodes, {:.3} s",
+                        r.name, r.steps, r.failures_recovered, r.newton_iterations, r.nodes, r.seconds
+                    ));
+                }
+            }
+            AppEvent::CaseFinished(c) => {
+                if let Some(bar) = self.bar.take() {
+                    bar.finish_and_clear();
+                }
+                self.line(format!(
+                    "case {}: {}; b = {:.4}, cost = {:.6}, max|<Om,xi>| = {:.1e}, nodes = {}, {:.2} s",
+                    c.name, c.status, c.terminal_time, c.cost, c.max_abs_constraint, c.mesh_nodes, c.wall_seconds
+                ));
+            }
+            AppEvent::Wrote(path) => {
+                if self.verbose {
+                    self.line(format!("  wrote {}", path.display()));
+                }
+            }
+        }
+    }
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let mut reporter = Reporter {
+        quiet: cli.quiet,
+        verbose: cli.verbose,
+        bar: None,
+        terminal: std::io::stderr().is_terminal(),
+    };
+    match cli.command {
+        Command::Paper { out } => match app::run_paper(&out, &mut |e| reporter.event(e)) {
+            Ok(summary) => {
+                let failed = summary.cases.iter().any(|c| c.status != "converged");
+                if !cli.quiet {
+                    eprintln!("wrote {}", out.join("summary.json").display());
+                }
+                if failed {
+                    eprintln!("error: not every case converged (see summary.json)");
+                    ExitCode::FAILURE
+                } else {
+                    ExitCode::SUCCESS
+                }
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
+    }
 }

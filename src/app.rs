@@ -1,0 +1,265 @@
+//! The jobs behind the command line, as library functions (the binary is a thin shell).
+//!
+//! [`run_paper`] reproduces the paper's section 5.3: both cases are solved from the analytic
+//! singular solution through the staged homotopy, verified a posteriori
+//! ([`crate::suslov::diagnostics`]) and written to an output directory:
+//!
+//! ```text
+//! DIR/summary.json             one entry per case (see report::CaseSummary)
+//! DIR/<case>/trajectory.csv    t, Ω, ξ, ξ̇, κ, Ω_d on a uniform grid of [a, b]
+//! DIR/<case>/*.png             Ω, Ω_d and ξ_∥ in 3-D; ⟨Ω, ξ⟩; |ξ|; κ; Ω components
+//! ```
+//!
+//! Every file is written atomically. A case that fails writes what it has, marked: its
+//! summary status says `partial: <stage, parameter value, reason>` and its trajectory goes
+//! to `trajectory.partial.csv`.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use crate::report::{
+    self, CaseSummary, FigureFormat, FigureOptions, ReportError, StabilityRun, StageSummary,
+    Summary, TrajectoryTable,
+};
+use crate::suslov::diagnostics::{diagnose, reintegrate_check};
+use crate::suslov::paper::{self, PaperCase};
+use crate::suslov::problem::SuslovProblem;
+use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
+
+/// Points of the output grid (trajectory.csv and figures).
+pub const OUTPUT_POINTS: usize = 2001;
+
+/// What the jobs report while running.
+#[derive(Debug)]
+pub enum AppEvent<'a> {
+    /// A case starts.
+    CaseStarted {
+        /// Case name.
+        name: &'a str,
+    },
+    /// Progress inside the solve of the current case.
+    Solve(&'a Event<'a>),
+    /// A case ended (converged or not).
+    CaseFinished(&'a CaseSummary),
+    /// A file was written.
+    Wrote(&'a Path),
+}
+
+/// Errors that stop a job (per-case solver failures do not: they are recorded).
+#[derive(Debug, thiserror::Error)]
+pub enum AppError {
+    /// Writing an output failed.
+    #[error(transparent)]
+    Report(#[from] ReportError),
+}
+
+/// Sample a solution on a uniform grid of `[a, b]` with `Ω_d`.
+pub fn trajectory_table(sol: &SuslovSolution, points: usize) -> TrajectoryTable {
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    let mut table = TrajectoryTable::default();
+    for k in 0..points {
+        let t = if k + 1 == points {
+            b
+        } else {
+            a + (b - a) * k as f64 / (points - 1) as f64
+        };
+        let y = sol.state(t);
+        let od = sol.problem.desired.value(t);
+        table.t.push(t);
+        table.omega.push([y[0], y[1], y[2]]);
+        table.xi.push([y[3], y[4], y[5]]);
+        table.xi_dot.push([y[6], y[7], y[8]]);
+        table.kappa.push([y[9], y[10], y[11]]);
+        table.omega_d.push([od[0], od[1], od[2]]);
+    }
+    table
+}
+
+fn stage_summaries(sol: &SuslovSolution) -> Vec<StageSummary> {
+    sol.stages
+        .iter()
+        .map(|s| StageSummary {
+            name: s.name.to_string(),
+            parameter: match s.name {
+                "beta" | "gamma" | "eta" | "delta" => s.name.to_string(),
+                _ => "-".to_string(),
+            },
+            from: s.from,
+            to: s.to,
+            steps: s.steps,
+            newton_iterations: s.newton_iterations,
+            failures_recovered: s.failures_recovered,
+        })
+        .collect()
+}
+
+/// Diagnose `sol` and fill a case summary (status "converged").
+pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSummary {
+    let d = diagnose(sol);
+    let mut c = CaseSummary {
+        name: name.to_string(),
+        eta: sol.problem.weights.eta,
+        terminal_time: d.terminal_time,
+        cost: d.cost,
+        max_abs_constraint: d.max_abs_constraint,
+        xi_norm_min: d.xi_norm_min,
+        xi_norm_max: d.xi_norm_max,
+        energy_drift: d.energy_drift,
+        omega_b_error: d.omega_b_error,
+        max_residual: d.max_residual,
+        mesh_nodes: sol.bvp.num_nodes(),
+        continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
+        newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
+        wall_seconds,
+        status: "converged".to_string(),
+        stages: stage_summaries(sol),
+        ..Default::default()
+    };
+    c.extra.insert(
+        "bc_residual".into(),
+        serde_json::json!(finite(d.bc_residual)),
+    );
+    c.extra.insert(
+        "max_relative_residual".into(),
+        serde_json::json!(finite(d.max_relative_residual)),
+    );
+    c.extra.insert(
+        "start".into(),
+        serde_json::json!({
+            "omega_p": sol.start.omega_p,
+            "paper_case": sol.start.case,
+            "b_p": sol.start.b_p,
+            "beta_m": sol.start.beta_m,
+            "desired_energy_deviation": finite(sol.start.desired_energy_deviation),
+        }),
+    );
+    match reintegrate_check(sol) {
+        Ok(r) => {
+            c.reintegration_max_diff = Some(r.max_abs_diff);
+            c.stability = r
+                .stability
+                .iter()
+                .map(|(label, dev)| StabilityRun {
+                    label: label.clone(),
+                    perturbation: 1e-3,
+                    max_omega_diff: *dev,
+                    max_xi_diff: f64::NAN,
+                    final_omega_diff: f64::NAN,
+                })
+                .collect();
+        }
+        Err(e) => {
+            c.extra
+                .insert("reintegration_error".into(), serde_json::json!(e.to_string()));
+        }
+    }
+    c
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+fn write_case_outputs(
+    dir: &Path,
+    sol: &SuslovSolution,
+    title: &str,
+    partial: bool,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<(), AppError> {
+    let table = trajectory_table(sol, OUTPUT_POINTS);
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let csv = dir.join(if partial {
+        "trajectory.partial.csv"
+    } else {
+        "trajectory.csv"
+    });
+    report::write_trajectory_csv(&csv, &table)?;
+    events(AppEvent::Wrote(&csv));
+    let inertia = sol.problem.inertia.diag();
+    let om_a = sol.problem.omega_a;
+    let ellipsoid =
+        report::EnergyEllipsoid::through([inertia[0], inertia[1], inertia[2]], om_a.into())?;
+    let mut opts = FigureOptions::new(title, ellipsoid);
+    opts.format = FigureFormat::Png;
+    if !partial {
+        for path in report::write_case_figures(dir, &table, &opts)? {
+            events(AppEvent::Wrote(&path));
+        }
+    }
+    Ok(())
+}
+
+/// Solve one problem, verify it and write its outputs under `dir`; never fails for a solver
+/// failure (that is recorded in the returned summary).
+pub fn run_case(
+    name: &str,
+    problem: &SuslovProblem,
+    dir: &Path,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<CaseSummary, AppError> {
+    events(AppEvent::CaseStarted { name });
+    let clock = Instant::now();
+    let result = solve::solve(problem, options, &mut |e| events(AppEvent::Solve(e)));
+    let summary = match result {
+        Ok(sol) => {
+            let mut s = summarize(name, &sol, 0.0);
+            s.wall_seconds = clock.elapsed().as_secs_f64();
+            write_case_outputs(dir, &sol, name, false, events)?;
+            s
+        }
+        Err(SolveError::StageFailed {
+            stage,
+            parameter,
+            reached,
+            target,
+            reason,
+            partial,
+        }) => {
+            let mut s = summarize(name, &partial, clock.elapsed().as_secs_f64());
+            s.status = format!(
+                "partial: stage '{stage}' stopped at {parameter} = {reached} (target {target}): \
+                 {reason}"
+            );
+            write_case_outputs(dir, &partial, name, true, events)?;
+            s
+        }
+        Err(e) => CaseSummary {
+            name: name.to_string(),
+            eta: problem.weights.eta,
+            terminal_time: f64::NAN,
+            cost: f64::NAN,
+            max_abs_constraint: f64::NAN,
+            xi_norm_min: f64::NAN,
+            xi_norm_max: f64::NAN,
+            energy_drift: f64::NAN,
+            omega_b_error: f64::NAN,
+            max_residual: f64::NAN,
+            wall_seconds: clock.elapsed().as_secs_f64(),
+            status: format!("failed: {e}"),
+            ..Default::default()
+        },
+    };
+    events(AppEvent::CaseFinished(&summary));
+    Ok(summary)
+}
+
+/// `suslov paper --out DIR`: both cases of section 5.3. Returns the summary (also written to
+/// `DIR/summary.json`).
+pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary, AppError> {
+    let mut summary = Summary::default();
+    let options = SolveOptions::default();
+    for PaperCase { name, eta, .. } in paper::CASES {
+        let dir: PathBuf = out.join(name);
+        let case = run_case(name, &paper::problem(eta), &dir, &options, events)?;
+        summary.cases.push(case);
+        let path = out.join("summary.json");
+        report::write_summary_json(&path, &summary)?;
+        events(AppEvent::Wrote(&path));
+    }
+    Ok(summary)
+}
