@@ -11,12 +11,25 @@ fn layered_system_n12_k1_to_1e_8() {
     let guess = LayeredSystem::guess(&uniform(0.0, 1.0, 20));
     let mut sols = vec![];
     for jacobian in [JacobianSource::Analytic, JacobianSource::FiniteDifference] {
-        let opts = Options { tol: 1e-8, jacobian, ..Options::default() };
+        let opts = Options {
+            tol: 1e-8,
+            jacobian,
+            ..Options::default()
+        };
         let sol = solve(&LayeredSystem, &guess, &opts).unwrap();
-        assert_eq!(sol.status, Status::Converged, "{jacobian:?}: {}", sol.message());
+        assert_eq!(
+            sol.status,
+            Status::Converged,
+            "{jacobian:?}: {}",
+            sol.message()
+        );
         let err = node_error(&LayeredSystem, &sol).max(dense_error(&LayeredSystem, &sol, 4001));
         assert!(err < 1e-7, "{jacobian:?}: error {err:e}");
-        assert!((sol.p[0] - LayeredSystem::T).abs() < 1e-7, "T = {}", sol.p[0]);
+        assert!(
+            (sol.p[0] - LayeredSystem::T).abs() < 1e-7,
+            "T = {}",
+            sol.p[0]
+        );
         assert!(sol.num_nodes() < 2000, "{} nodes", sol.num_nodes());
         sols.push(sol);
     }

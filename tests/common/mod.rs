@@ -332,7 +332,11 @@ impl LayeredSystem {
                 let e = (-s / b).exp();
                 (e + s, -e / b + 1.0, e / (b * b))
             }
-            2 => ((3.0 * s).sin(), 3.0 * (3.0 * s).cos(), -9.0 * (3.0 * s).sin()),
+            2 => (
+                (3.0 * s).sin(),
+                3.0 * (3.0 * s).cos(),
+                -9.0 * (3.0 * s).sin(),
+            ),
             3 => {
                 let b = 5e-3;
                 let e = ((s - 1.0) / b).exp();
@@ -363,10 +367,17 @@ impl BvpProblem for LayeredSystem {
         for j in 0..6 {
             let (uu, _, d2u) = Self::profile(j, s);
             let u = y[2 * j];
-            let couple = if j < 5 { 0.1 * (y[2 * j + 2] - Self::profile(j + 1, s).0) } else { 0.0 };
+            let couple = if j < 5 {
+                0.1 * (y[2 * j + 2] - Self::profile(j + 1, s).0)
+            } else {
+                0.0
+            };
             dy[2 * j] = y[2 * j + 1];
-            dy[2 * j + 1] =
-                Self::kk(j) * (u - uu) + (u * u * u - uu * uu * uu) + d2u + (p[0] - Self::T) * u + couple;
+            dy[2 * j + 1] = Self::kk(j) * (u - uu)
+                + (u * u * u - uu * uu * uu)
+                + d2u
+                + (p[0] - Self::T) * u
+                + couple;
         }
     }
     fn jac(&self, _s: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
@@ -393,11 +404,12 @@ impl BvpProblem for LayeredSystem {
 }
 impl Exact for LayeredSystem {
     fn exact(&self, s: f64) -> Vec<f64> {
-        (0..6).flat_map(|j| {
-            let (u, du, _) = Self::profile(j, s);
-            [u, du]
-        })
-        .collect()
+        (0..6)
+            .flat_map(|j| {
+                let (u, du, _) = Self::profile(j, s);
+                [u, du]
+            })
+            .collect()
     }
     fn exact_p(&self) -> Vec<f64> {
         vec![Self::T]
