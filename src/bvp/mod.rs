@@ -435,7 +435,7 @@ pub fn solve<P: BvpProblem + ?Sized>(
 /// returned [`Solution`]. The guess is only read.
 ///
 /// The outer loop: Newton on the current mesh ([`newton`]), error estimate and verification
-/// ([`mesh`]), then [`choose_next_step`]: finish, refine (equidistribution), halve (after a
+/// ([`mesh`]), then `choose_next_step`: finish, refine (equidistribution), halve (after a
 /// Newton failure) or, once converged, coarsen an over-resolved mesh.
 pub fn solve_with_progress<P: BvpProblem + ?Sized>(
     problem: &P,
