@@ -176,6 +176,89 @@ def tanh_layer(w=0.01):
     return f, fj, bc, bcj, exact, lambda x: np.vstack((2 * x - 1, 2 * np.ones_like(x))), None, None
 
 
+def layered_system():
+    """n = 12, k = 1; see `LayeredSystem` in tests/common/mod.rs."""
+    T = 2.0
+
+    def profile(j, s):
+        if j == 0:
+            w = 0.01
+            u = np.tanh((s - 0.5) / w)
+            du = (1 - u * u) / w
+            return u, du, -2 * u * du / w
+        if j == 1:
+            b = 1e-3
+            e = np.exp(-s / b)
+            return e + s, -e / b + 1, e / b**2
+        if j == 2:
+            return np.sin(3 * s), 3 * np.cos(3 * s), -9 * np.sin(3 * s)
+        if j == 3:
+            b = 5e-3
+            e = np.exp((s - 1) / b)
+            return e, e / b, e / b**2
+        if j == 4:
+            return s * s, 2 * s, 2 + 0 * s
+        w = 0.05
+        u = np.tanh((s - 0.3) / w)
+        du = (1 - u * u) / w
+        return u, du, -2 * u * du / w
+
+    def f(s, y, p):
+        out = np.empty_like(y)
+        for j in range(6):
+            uu, _, d2u = profile(j, s)
+            u = y[2 * j]
+            couple = 0.1 * (y[2 * j + 2] - profile(j + 1, s)[0]) if j < 5 else 0
+            out[2 * j] = y[2 * j + 1]
+            out[2 * j + 1] = (1 + j) ** 2 * (u - uu) + (u**3 - uu**3) + d2u + (p[0] - T) * u + couple
+        return out
+
+    def fj(s, y, p):
+        j_ = np.zeros((12, 12, s.size))
+        jp = np.zeros((12, 1, s.size))
+        for j in range(6):
+            u = y[2 * j]
+            j_[2 * j, 2 * j + 1] = 1
+            j_[2 * j + 1, 2 * j] = (1 + j) ** 2 + 3 * u * u + (p[0] - T)
+            if j < 5:
+                j_[2 * j + 1, 2 * j + 2] = 0.1
+            jp[2 * j + 1, 0] = u
+        return j_, jp
+
+    def bc(ya, yb, p):
+        r = np.empty(13)
+        for j in range(6):
+            r[j] = ya[2 * j] - profile(j, 0.0)[0]
+            r[6 + j] = yb[2 * j] - profile(j, 1.0)[0]
+        r[12] = ya[1] - profile(0, 0.0)[1]
+        return r
+
+    def bcj(ya, yb, p):
+        da = np.zeros((13, 12))
+        db = np.zeros((13, 12))
+        for j in range(6):
+            da[j, 2 * j] = 1
+            db[6 + j, 2 * j] = 1
+        da[12, 1] = 1
+        return da, db, np.zeros((13, 1))
+
+    def exact(s):
+        rows = []
+        for j in range(6):
+            u, du, _ = profile(j, s)
+            rows += [u, du]
+        return np.vstack(rows)
+
+    def guess(s):
+        rows = []
+        for j in range(6):
+            a, b = profile(j, 0.0)[0], profile(j, 1.0)[0]
+            rows += [a + (b - a) * s, (b - a) * np.ones_like(s)]
+        return np.vstack(rows)
+
+    return f, fj, bc, bcj, exact, guess, np.array([2.5]), np.array([T])
+
+
 PROBLEMS = [
     ("linear", linear()),
     ("nonlinear y''=1.5y^2", quadratic()),
@@ -184,6 +267,7 @@ PROBLEMS = [
     ("bratu lower", bratu(1.0, lambda x: np.zeros((2, x.size)))),
     ("bratu upper", bratu(10.0, lambda x: np.vstack((3 * np.ones_like(x), np.zeros_like(x))))),
     ("tanh layer w=0.01", tanh_layer()),
+    ("layered n=12 k=1", layered_system()),
 ]
 
 
@@ -203,7 +287,7 @@ def main():
     print("| problem                | tol   | median ms  | nodes  | status | max err  |")
     print("|------------------------|-------|------------|--------|--------|----------|")
     for name, (f, fj, bc, bcj, exact, guess, p0, p_exact) in PROBLEMS:
-        x = np.linspace(0, 1, 11)
+        x = np.linspace(0, 1, 21 if name.startswith("layered") else 11)
         for tol in (1e-6, 1e-8):
             def run():
                 return solve_bvp(f, bc, x, guess(x), p=p0, fun_jac=fj, bc_jac=bcj, tol=tol, max_nodes=100000)

@@ -210,6 +210,11 @@ fn main() {
             o.copy_from_slice(&[2.0 * x - 1.0, 2.0])
         });
         bench_problem("tanh layer w=0.01", &InteriorLayer { w: 0.01 }, &g);
+        bench_problem(
+            "layered n=12 k=1",
+            &LayeredSystem,
+            &LayeredSystem::guess(&uniform(0.0, 1.0, 20)),
+        );
     }
     if run("warm") {
         println!("\n## Warm starts (tol 1e-8)\n");

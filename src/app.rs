@@ -149,8 +149,10 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
                 .collect();
         }
         Err(e) => {
-            c.extra
-                .insert("reintegration_error".into(), serde_json::json!(e.to_string()));
+            c.extra.insert(
+                "reintegration_error".into(),
+                serde_json::json!(e.to_string()),
+            );
         }
     }
     c

@@ -10,7 +10,11 @@ use suslov::app::{self, AppEvent};
 use suslov::suslov::solve::Event;
 
 #[derive(Parser)]
-#[command(name = "suslov", version, about = "Optimal control of Suslov's problem: the constraint is the control")]
+#[command(
+    name = "suslov",
+    version,
+    about = "Optimal control of Suslov's problem: the constraint is the control"
+)]
 struct Cli {
     /// Print nothing but errors.
     #[arg(short, long, global = true)]

@@ -154,6 +154,20 @@ fn progress_hook_reports_newton_steps_and_mesh_passes() {
     for (p, &m) in passes.iter().zip(&sol.stats.mesh_history) {
         assert_eq!(p.nodes, m);
     }
+    // Display gives one log line per event and a report for the solution.
+    let first = events[0].to_string();
+    assert!(first.starts_with("pass 0 (11 nodes): Newton 0:"), "{first}");
+    let last_line = passes.last().unwrap().to_string();
+    assert!(last_line.ends_with(", done"), "{last_line}");
+    let report = sol.to_string();
+    assert!(
+        report.starts_with("Converged: The algorithm converged"),
+        "{report}"
+    );
+    assert!(
+        report.contains(&format!("Mesh of {} nodes", sol.num_nodes())),
+        "{report}"
+    );
     match passes.last().unwrap().event {
         ProgressEvent::MeshPass {
             next_nodes,

@@ -16,9 +16,14 @@
 //! ```
 //!
 //! The pattern depends only on `(n, k, m)`: it is built and analysed (COLAMD ordering,
-//! symbolic LU) once per mesh; each Newton Jacobian is a numeric refactorisation only. The
+//! symbolic LU) once per mesh size (and reused across solves on the same thread, which makes
+//! warm starts on an unchanged mesh cheaper); each Newton Jacobian is a numeric
+//! refactorisation only. The
 //! fill of an LU with partial pivoting of this matrix stays `O(N n^2 (n + k))`, so work and
 //! memory are linear in the number of intervals.
+
+use std::cell::RefCell;
+use std::rc::Rc;
 
 use faer::linalg::solvers::SolveCore;
 use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
@@ -69,18 +74,31 @@ pub(crate) enum FactorError {
 /// The global sparse system of one mesh with its cached symbolic analysis.
 pub(crate) struct GlobalSystem {
     order: usize,
-    symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
-    symbolic_lu: SymbolicLu<usize>,
-    /// [`global_jacobian_pattern`] and the values in that order.
-    pattern: Vec<(usize, usize)>,
+    structure: Rc<Structure>,
+    /// Values in [`global_jacobian_pattern`] order.
     pub values: Vec<f64>,
     lu: Option<Lu<usize, f64>>,
 }
 
-impl GlobalSystem {
-    /// Build the pattern and its symbolic LU for `n` states, `k` parameters, `m` nodes.
-    pub fn new(n: usize, k: usize, m: usize) -> Self {
+/// Everything that depends only on `(n, k, m)`: the pattern, its CSC structure with the
+/// value order, and the symbolic LU (COLAMD ordering, elimination structure).
+struct Structure {
+    key: (usize, usize, usize),
+    pattern: Vec<(usize, usize)>,
+    symbolic: SymbolicSparseColMat<usize>,
+    argsort: Argsort<usize>,
+    symbolic_lu: SymbolicLu<usize>,
+}
+
+thread_local! {
+    /// The structure of the last mesh size seen on this thread. Warm starts and continuation
+    /// re-solve on the same mesh many times; the structure is a pure function of `(n, k, m)`,
+    /// so reusing it changes no result and skips the COLAMD ordering and symbolic analysis.
+    static LAST_STRUCTURE: RefCell<Option<Rc<Structure>>> = const { RefCell::new(None) };
+}
+
+impl Structure {
+    fn build(n: usize, k: usize, m: usize) -> Self {
         let order = m * n + k;
         let pattern = global_jacobian_pattern(n, k, m);
         let pairs: Vec<Pair<usize, usize>> =
@@ -89,14 +107,35 @@ impl GlobalSystem {
             .expect("the global pattern has in-bounds, well-formed indices by construction");
         let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
             .expect("symbolic LU of the global pattern (allocation failure)");
-        let values = vec![0.0; pattern.len()];
         Self {
-            order,
+            key: (n, k, m),
+            pattern,
             symbolic,
             argsort,
             symbolic_lu,
-            pattern,
-            values,
+        }
+    }
+}
+
+impl GlobalSystem {
+    /// The system for `n` states, `k` parameters, `m` nodes: pattern and symbolic LU are
+    /// built, or reused if the previous system on this thread had the same sizes.
+    pub fn new(n: usize, k: usize, m: usize) -> Self {
+        let structure = LAST_STRUCTURE.with(|cell| {
+            let mut last = cell.borrow_mut();
+            match last.as_ref() {
+                Some(s) if s.key == (n, k, m) => Rc::clone(s),
+                _ => {
+                    let s = Rc::new(Structure::build(n, k, m));
+                    *last = Some(Rc::clone(&s));
+                    s
+                }
+            }
+        });
+        Self {
+            order: m * n + k,
+            values: vec![0.0; structure.pattern.len()],
+            structure,
             lu: None,
         }
     }
@@ -104,10 +143,10 @@ impl GlobalSystem {
     /// Numeric LU of the current `values` (symbolic analysis reused).
     pub fn factor(&mut self) -> Result<(), FactorError> {
         self.lu = None;
-        let mat =
-            SparseColMat::new_from_argsort(self.symbolic.clone(), &self.argsort, &self.values)
-                .map_err(|_| FactorError::Singular)?;
-        let lu = Lu::try_new_with_symbolic(self.symbolic_lu.clone(), mat.as_ref())
+        let st = &self.structure;
+        let mat = SparseColMat::new_from_argsort(st.symbolic.clone(), &st.argsort, &self.values)
+            .map_err(|_| FactorError::Singular)?;
+        let lu = Lu::try_new_with_symbolic(st.symbolic_lu.clone(), mat.as_ref())
             .map_err(|_| FactorError::Singular)?;
         self.lu = Some(lu);
         Ok(())
@@ -143,7 +182,7 @@ impl GlobalSystem {
             // r = e - J z, then the refinement J^{-1} r.
             r.iter_mut().for_each(|v| *v = 0.0);
             r[first_row + row] = 1.0;
-            for (&(i, j), v) in self.pattern.iter().zip(&self.values) {
+            for (&(i, j), v) in self.structure.pattern.iter().zip(&self.values) {
                 r[i] -= v * z[j];
             }
             if !self.solve_in_place(&mut r) {
@@ -169,7 +208,7 @@ impl GlobalSystem {
             return f64::INFINITY;
         };
         let order = self.order;
-        let pattern = &self.pattern;
+        let pattern = &self.structure.pattern;
         let mut row_max = vec![0.0_f64; order];
         for (&(r, _), v) in pattern.iter().zip(&self.values) {
             row_max[r] = row_max[r].max(v.abs());
@@ -237,7 +276,7 @@ impl GlobalSystem {
     #[cfg(test)]
     pub fn to_dense(&self) -> Vec<f64> {
         let mut d = vec![0.0; self.order * self.order];
-        for (&(r, c), v) in self.pattern.iter().zip(&self.values) {
+        for (&(r, c), v) in self.structure.pattern.iter().zip(&self.values) {
             d[r * self.order + c] += v;
         }
         d

@@ -150,6 +150,31 @@ pub enum ProgressEvent {
     },
 }
 
+impl std::fmt::Display for Progress {
+    /// One log line, e.g. for `-v` output of a CLI.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "pass {} ({} nodes): ", self.pass, self.nodes)?;
+        match &self.event {
+            ProgressEvent::NewtonStep { iteration, correction_norm, damping, fresh_jacobian } => write!(
+                f,
+                "Newton {iteration}: |dx| = {correction_norm:.2e}, damping {damping:.3}, {} Jacobian",
+                if *fresh_jacobian { "new" } else { "reused" }
+            ),
+            ProgressEvent::MeshPass { newton_converged, max_error, max_residual, next_nodes } => {
+                write!(
+                    f,
+                    "Newton {}, max error {max_error:.2e}, max residual {max_residual:.2e}",
+                    if *newton_converged { "converged" } else { "failed" }
+                )?;
+                match next_nodes {
+                    Some(m) => write!(f, ", next mesh {m} nodes"),
+                    None => write!(f, ", done"),
+                }
+            }
+        }
+    }
+}
+
 /// A starting point: mesh, values at the nodes, parameters, and optionally the interior
 /// stage values (a warm start from a [`Solution`] carries them, which makes it exact).
 ///
@@ -273,6 +298,37 @@ pub struct Solution {
     pub(crate) stages: Vec<f64>,
     pub(crate) stage_f: Vec<f64>,
     pub(crate) tab: Tableau,
+}
+
+impl std::fmt::Display for Solution {
+    /// A termination report in the style of bvp4c's `Stats` output.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let s = &self.stats;
+        writeln!(f, "{}", self.status)?;
+        writeln!(
+            f,
+            "Mesh of {} nodes after {} passes {:?}; max error estimate {:.2e} (tolerance = 1), \
+             max RMS relative residual {:.2e}, max |bc| {:.2e}.",
+            self.num_nodes(),
+            s.mesh_passes,
+            s.mesh_history,
+            s.max_error,
+            s.max_residual,
+            s.bc_residual
+        )?;
+        write!(
+            f,
+            "{} Newton iterations, {} Jacobians, {} factorisations, {} calls of f, {} of g; \
+             BC sensitivity {:.1e}, condition estimate {:.1e}.",
+            s.newton_iterations,
+            s.jacobian_evaluations,
+            s.factorizations,
+            s.f_evaluations,
+            s.bc_evaluations,
+            s.bc_condition,
+            s.condition_estimate
+        )
+    }
 }
 
 impl Solution {

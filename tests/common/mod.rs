@@ -303,3 +303,128 @@ pub fn fitted_order(hs: &[f64], errs: &[f64]) -> f64 {
     let den: f64 = lx.iter().map(|a| (a - mx) * (a - mx)).sum();
     num / den
 }
+
+/// A manufactured system shaped like the target problem: n = 12 (six pairs u_j, v_j),
+/// k = 1 (a parameter T, exact value 2), an interior tanh layer of width 0.01, boundary
+/// layers of widths 1e-3 (left) and 5e-3 (right), nonlinear and coupled:
+///
+/// ```text
+/// u_j' = v_j,
+/// v_j' = k_j^2 (u_j - U_j) + (u_j^3 - U_j^3) + U_j'' + (T - 2) u_j + c (u_{j+1} - U_{j+1}),
+/// u_j(0) = U_j(0), u_j(1) = U_j(1) (j = 0..5),   v_0(0) = U_0'(0)   (13 conditions),
+/// ```
+///
+/// with `k_j = 1 + j`, `c = 0.1`; exact solution `u_j = U_j`, `v_j = U_j'`, `T = 2`.
+pub struct LayeredSystem;
+impl LayeredSystem {
+    pub const T: f64 = 2.0;
+    /// (U, U', U'') of profile j at s.
+    pub fn profile(j: usize, s: f64) -> (f64, f64, f64) {
+        match j {
+            0 => {
+                let w = 0.01;
+                let u = ((s - 0.5) / w).tanh();
+                let du = (1.0 - u * u) / w;
+                (u, du, -2.0 * u * du / w)
+            }
+            1 => {
+                let b = 1e-3;
+                let e = (-s / b).exp();
+                (e + s, -e / b + 1.0, e / (b * b))
+            }
+            2 => (
+                (3.0 * s).sin(),
+                3.0 * (3.0 * s).cos(),
+                -9.0 * (3.0 * s).sin(),
+            ),
+            3 => {
+                let b = 5e-3;
+                let e = ((s - 1.0) / b).exp();
+                (e, e / b, e / (b * b))
+            }
+            4 => (s * s, 2.0 * s, 2.0),
+            _ => {
+                let w = 0.05;
+                let u = ((s - 0.3) / w).tanh();
+                let du = (1.0 - u * u) / w;
+                (u, du, -2.0 * u * du / w)
+            }
+        }
+    }
+    fn kk(j: usize) -> f64 {
+        let k = 1.0 + j as f64;
+        k * k
+    }
+}
+impl BvpProblem for LayeredSystem {
+    fn n(&self) -> usize {
+        12
+    }
+    fn k(&self) -> usize {
+        1
+    }
+    fn f(&self, s: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
+        for j in 0..6 {
+            let (uu, _, d2u) = Self::profile(j, s);
+            let u = y[2 * j];
+            let couple = if j < 5 {
+                0.1 * (y[2 * j + 2] - Self::profile(j + 1, s).0)
+            } else {
+                0.0
+            };
+            dy[2 * j] = y[2 * j + 1];
+            dy[2 * j + 1] = Self::kk(j) * (u - uu)
+                + (u * u * u - uu * uu * uu)
+                + d2u
+                + (p[0] - Self::T) * u
+                + couple;
+        }
+    }
+    fn jac(&self, _s: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
+        dfdy.fill(0.0);
+        for j in 0..6 {
+            let u = y[2 * j];
+            dfdy[(2 * j) * 12 + 2 * j + 1] = 1.0;
+            dfdy[(2 * j + 1) * 12 + 2 * j] = Self::kk(j) + 3.0 * u * u + (p[0] - Self::T);
+            if j < 5 {
+                dfdy[(2 * j + 1) * 12 + 2 * j + 2] = 0.1;
+            }
+            dfdp[2 * j] = 0.0;
+            dfdp[2 * j + 1] = u;
+        }
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        for j in 0..6 {
+            r[j] = ya[2 * j] - Self::profile(j, 0.0).0;
+            r[6 + j] = yb[2 * j] - Self::profile(j, 1.0).0;
+        }
+        r[12] = ya[1] - Self::profile(0, 0.0).1;
+    }
+}
+impl Exact for LayeredSystem {
+    fn exact(&self, s: f64) -> Vec<f64> {
+        (0..6)
+            .flat_map(|j| {
+                let (u, du, _) = Self::profile(j, s);
+                [u, du]
+            })
+            .collect()
+    }
+    fn exact_p(&self) -> Vec<f64> {
+        vec![Self::T]
+    }
+}
+
+impl LayeredSystem {
+    /// A crude guess: straight lines between the boundary values, T = 2.5.
+    pub fn guess(x: &[f64]) -> Guess {
+        Guess::from_fn(x, 12, vec![2.5], |s, out| {
+            for j in 0..6 {
+                let (a, b) = (Self::profile(j, 0.0).0, Self::profile(j, 1.0).0);
+                out[2 * j] = a + (b - a) * s;
+                out[2 * j + 1] = b - a;
+            }
+        })
+    }
+}
