@@ -139,12 +139,12 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
             c.stability = r
                 .stability
                 .iter()
-                .map(|(label, dev)| StabilityRun {
+                .map(|(label, rep)| StabilityRun {
                     label: label.clone(),
                     perturbation: 1e-3,
-                    max_omega_diff: *dev,
-                    max_xi_diff: f64::NAN,
-                    final_omega_diff: f64::NAN,
+                    max_omega_diff: rep.max_deviation,
+                    max_xi_diff: rep.max_xi_deviation,
+                    final_omega_diff: rep.final_deviation,
                 })
                 .collect();
         }

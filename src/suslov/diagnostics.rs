@@ -19,7 +19,9 @@ use crate::ivp::IvpOptions;
 use crate::model::generated as g;
 
 use super::problem::SuslovBvp;
-use super::reintegrate::{compare, reintegrate, stability_experiment, Perturbation};
+use super::reintegrate::{
+    compare, reintegrate, stability_experiment, Perturbation, StabilityReport,
+};
 use super::solve::SuslovSolution;
 use super::SuslovError;
 
@@ -71,8 +73,9 @@ pub struct Reintegration {
     pub t_max_abs_diff: f64,
     /// Relative energy drift along the re-integration.
     pub max_rel_energy_drift: f64,
-    /// Stability experiment: `(description, max |Ω_pert − Ω|)`.
-    pub stability: Vec<(String, f64)>,
+    /// Stability experiment: `(description, report)`.
+    #[serde(skip)]
+    pub stability: Vec<(String, StabilityReport)>,
 }
 
 /// Fine grid on `s ∈ [0, 1]`: every mesh interval subdivided `per` times.
@@ -215,7 +218,7 @@ pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovEr
             &times,
             &options,
         )?;
-        stability.push((label.to_string(), rep.max_deviation));
+        stability.push((label.to_string(), rep));
     }
     Ok(Reintegration {
         max_abs_diff: cmp.max_abs_diff,
