@@ -585,8 +585,8 @@ mod projected_path_tests {
     #[test]
     fn projecting_a_trait_object_equals_the_generic_projection() {
         let spiral = PaperSpiral::paper();
-        let e = spiral.ellipsoid().clone();
-        let generic = Projected::new(spiral.clone(), e.clone());
+        let e = *spiral.ellipsoid();
+        let generic = Projected::new(spiral.clone(), e);
         let dynamic = ProjectedPath {
             inner: std::sync::Arc::new(spiral),
             ellipsoid: e,

@@ -220,7 +220,8 @@ impl SuslovProblem {
         }
         let e = self.ellipsoid();
         let mismatch = e.relative_mismatch(&self.omega_b);
-        if !(mismatch.abs() <= ENERGY_REL_TOL) {
+        let on_ellipsoid = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN too
+        if !on_ellipsoid {
             let projection = e
                 .project(&self.omega_b)
                 .map(|v| [v[0], v[1], v[2]])

@@ -356,7 +356,7 @@ fn choose_start(
     let desired = check(&*problem.desired)?;
     let projected: Arc<dyn DesiredPath + Send + Sync> = Arc::new(ProjectedPath {
         inner: problem.desired.clone(),
-        ellipsoid: e.clone(),
+        ellipsoid: e,
     });
     let proj = check(&*projected)?;
     let admissible_ends = |r: &super::properties::PropertyReport| {
