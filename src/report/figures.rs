@@ -326,6 +326,7 @@ fn draw<DB: DrawingBackend>(
     opts: &FigureOptions,
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let segmented = opts.format == FigureFormat::Png;
     let result = match figure {
         Figure::Omega3d => draw_omega_3d(root, table, opts),
         Figure::Constraint => {
@@ -345,7 +346,8 @@ fn draw<DB: DrawingBackend>(
                 &series,
                 YAxis::Symmetric,
                 false,
-                opts,
+                None,
+                segmented,
             )
         }
         Figure::XiNorm => {
@@ -358,7 +360,8 @@ fn draw<DB: DrawingBackend>(
                 &series,
                 YAxis::Auto,
                 false,
-                opts,
+                Some((1.0, "|ξ| = 1")),
+                segmented,
             )
         }
         Figure::Kappa => {
@@ -376,7 +379,8 @@ fn draw<DB: DrawingBackend>(
                 &series,
                 YAxis::Auto,
                 true,
-                opts,
+                None,
+                segmented,
             )
         }
         Figure::OmegaComponents => {
@@ -403,11 +407,39 @@ fn draw<DB: DrawingBackend>(
                 &series,
                 YAxis::Auto,
                 false,
-                opts,
+                None,
+                segmented,
             )
         }
     };
     result.map_err(|e| e.to_string())
+}
+
+/// Draws a wide polyline on a chart (2-D or 3-D) and evaluates to the series annotation.
+/// With `$segmented` (bitmap output) the line is drawn segment by segment with round joins:
+/// plotters joins wide polylines with unlimited miters, which shoot far out of the plot at
+/// the sharp turns of noisy data (the constraint is rounding noise). SVG viewers apply a
+/// miter limit themselves, so SVG output keeps one compact `<polyline>`.
+macro_rules! draw_polyline {
+    ($chart:expr, $points:expr, $color:expr, $width:expr, $segmented:expr) => {{
+        let points = $points;
+        let color: RGBColor = $color;
+        let width: u32 = $width;
+        let style = color.stroke_width(width);
+        if $segmented {
+            let join = (f64::from(width) / 2.0).floor() as i32;
+            if join >= 1 {
+                $chart.draw_series(points.iter().map(|&p| Circle::new(p, join, color.filled())))?;
+            }
+            $chart.draw_series(
+                points
+                    .windows(2)
+                    .map(|w| PathElement::new(vec![w[0], w[1]], style)),
+            )?
+        } else {
+            $chart.draw_series(LineSeries::new(points.iter().copied(), style))?
+        }
+    }};
 }
 
 /// One curve of a time-series plot.
@@ -582,12 +614,18 @@ fn draw_time_series<DB: DrawingBackend>(
     series: &[Series],
     y_axis: YAxis,
     end_markers: bool,
-    opts: &FigureOptions,
+    reference: Option<(f64, &str)>,
+    segmented: bool,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let f = Fonts::for_size(root.dim_in_pixel());
     let (t0, t1) = finite_range(series.iter().flat_map(|s| s.t.iter())).unwrap_or((0.0, 1.0));
     let (t0, t1) = if t1 > t0 { (t0, t1) } else { padded((t0, t1)) };
-    let data = finite_range(series.iter().flat_map(|s| s.y.iter()));
+    let data = finite_range(
+        series
+            .iter()
+            .flat_map(|s| s.y.iter())
+            .chain(reference.as_ref().map(|(v, _)| v)),
+    );
     let magnitude = data.map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()));
     // Very small or large values are plotted in units of 10^e (plotters' tick search needs
     // O(1) numbers; the constraint is ~1e-12).
@@ -656,18 +694,7 @@ fn draw_time_series<DB: DrawingBackend>(
                 let dash = (14.0 * hs) as u32;
                 chart.draw_series(DashedLineSeries::new(run, dash, dash * 2 / 3, style))?
             } else {
-                // Segment by segment with round joins: plotters joins wide polylines with
-                // unlimited miters, which shoot far out of the plot at the sharp turns of
-                // noisy data (the constraint is rounding noise).
-                let join = (f64::from(width) / 2.0).floor() as i32;
-                if join >= 1 {
-                    chart
-                        .draw_series(run.iter().map(|&p| Circle::new(p, join, s.color.filled())))?;
-                }
-                chart.draw_series(
-                    run.windows(2)
-                        .map(|w| PathElement::new(vec![w[0], w[1]], style)),
-                )?
+                draw_polyline!(chart, &run, s.color, width, segmented)
             };
             if first {
                 let dashed = s.dashed;
@@ -690,6 +717,21 @@ fn draw_time_series<DB: DrawingBackend>(
         }
     }
     let mut entries = series.len();
+    if let Some((v, label)) = reference {
+        let v = v / unit;
+        let style = BLACK.mix(0.5).stroke_width((1.5 * hs).max(1.0) as u32);
+        let dash = (10.0 * hs) as u32;
+        chart
+            .draw_series(DashedLineSeries::new([(t0, v), (t1, v)], dash, dash, style))?
+            .label(label)
+            .legend(move |(x, y)| {
+                let d = legend_len * 2 / 5;
+                EmptyElement::at((x, y))
+                    + PathElement::new(vec![(0, 0), (d, 0)], style)
+                    + PathElement::new(vec![(legend_len - d, 0), (legend_len, 0)], style)
+            });
+        entries += 1;
+    }
     if end_markers {
         let r = (7.0 * hs).max(2.0) as i32;
         for s in series {
@@ -704,6 +746,11 @@ fn draw_time_series<DB: DrawingBackend>(
                     Circle::new(p, r, START_COLOR.filled()),
                     Circle::new(q, r, END_COLOR.filled()),
                 ])?;
+                // The legend must not hide a marker: they weigh like many curve points.
+                for m in [p, q] {
+                    let u = ((m.0 - t0) / (t1 - t0), (m.1 - y0) / (y1 - y0));
+                    unit_points.extend(std::iter::repeat_n(u, 200));
+                }
             }
         }
         chart
@@ -799,6 +846,7 @@ fn draw_omega_3d<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let f = Fonts::for_size(root.dim_in_pixel());
     let hs = f64::from(root.dim_in_pixel().1) / 900.0;
+    let segmented = opts.format == FigureFormat::Png;
     let e = &opts.ellipsoid;
     let omega: Vec<[f64; 3]> = table
         .omega
@@ -881,15 +929,13 @@ fn draw_omega_3d<DB: DrawingBackend>(
         ("ξ_∥ (control, on E)", &xi_par, XI_COLOR),
     ];
     for (name, pts, color) in curves {
-        chart
-            .draw_series(LineSeries::new(
-                thin_out(pts, 0.006 * r, |a, b| {
-                    norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
-                })
-                .into_iter()
-                .map(to_chart),
-                color.stroke_width(width),
-            ))?
+        let thinned: Vec<(f64, f64, f64)> = thin_out(pts, 0.006 * r, |a, b| {
+            norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+        })
+        .into_iter()
+        .map(to_chart)
+        .collect();
+        draw_polyline!(chart, &thinned, color, width, segmented)
             .label(name)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + legend_len, y)], color.stroke_width(width))
