@@ -501,10 +501,13 @@ fn finite_range<'a>(values: impl Iterator<Item = &'a f64>) -> Option<(f64, f64)>
 
 /// Pads a data range by 5 % on each side; a degenerate range gets a sensible width.
 fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
+    let magnitude = lo.abs().max(hi.abs());
+    if magnitude == 0.0 {
+        return (-1.0, 1.0);
+    }
     let span = hi - lo;
-    let min_span = 1e-9 * lo.abs().max(hi.abs()).max(1e-300);
-    if span <= min_span {
-        let half = (0.05 * lo.abs().max(hi.abs())).max(1e-12);
+    if span <= 1e-9 * magnitude {
+        let half = 0.05 * magnitude;
         return (lo - half, hi + half);
     }
     (lo - 0.05 * span, hi + 0.05 * span)
@@ -987,4 +990,91 @@ fn draw_omega_3d<DB: DrawingBackend>(
         .position(SeriesLabelPosition::UpperLeft)
         .draw()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(n: usize, f: impl Fn(f64) -> f64) -> TrajectoryTable {
+        let mut tab = TrajectoryTable::default();
+        for i in 0..n {
+            let t = i as f64 * 0.1;
+            let v = f(t);
+            tab.t.push(t);
+            tab.omega.push([5.0, v, 0.0]);
+            tab.xi.push([0.0, 1.0 + v, 0.0]);
+            tab.xi_dot.push([v; 3]);
+            tab.kappa.push([v, -v, 2.0 * v]);
+            tab.omega_d.push([5.0, 0.0, v]);
+        }
+        tab
+    }
+
+    fn opts(format: FigureFormat) -> FigureOptions {
+        let e = EnergyEllipsoid::through([1.0, 2.0, 3.0], [5.0, 0.0, 0.0]).unwrap();
+        FigureOptions {
+            format,
+            size: (400, 300),
+            ..FigureOptions::new("edge case", e)
+        }
+    }
+
+    /// Degenerate data must still give a figure (no panic in plotters' tick search).
+    #[test]
+    fn degenerate_data_render() {
+        let cases: Vec<(&str, TrajectoryTable)> = vec![
+            ("one row", table(1, |_| 0.3)),
+            ("all zero", table(50, |_| 0.0)),
+            ("constant", table(50, |_| 0.25)),
+            ("tiny variation", table(50, |t| 1e-13 * t)),
+            ("relative 1e-8", table(50, |t| 1.0 + 1e-8 * t)),
+            ("huge", table(50, |t| 1e250 * (t - 2.0))),
+            ("tiny", table(50, |t| 1e-250 * (t - 2.0))),
+        ];
+        for (name, tab) in cases {
+            for format in [FigureFormat::Png, FigureFormat::Svg] {
+                for fig in Figure::ALL {
+                    let bytes = render_figure_bytes(fig, &tab, &opts(format))
+                        .unwrap_or_else(|e| panic!("{name} {fig:?}: {e}"));
+                    assert!(bytes.len() > 100, "{name} {fig:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tick_steps_and_labels() {
+        assert_eq!(tick_step(0.0, 11.36, 10), 2.0);
+        assert_eq!(tick_step(0.97, 1.03, 10), 0.01);
+        assert_eq!(tick_label(1.0, 0.01), "1.00");
+        assert_eq!(tick_label(-1e-18, 0.5), "0.0");
+        assert_eq!(tick_label(4.0, 2.0), "4");
+        assert_eq!(power_of_ten(-16), "10⁻¹⁶");
+        assert_eq!(power_of_ten(250), "10²⁵⁰");
+        assert_eq!(display_exponent(6.6e-16), -16);
+        assert_eq!(display_exponent(3.0), 0);
+        assert_eq!(display_exponent(0.0), 0);
+    }
+
+    #[test]
+    fn legend_goes_where_the_data_is_not() {
+        let upper_right: Vec<(f64, f64)> =
+            (0..100).map(|i| (0.9 + i as f64 * 1e-3, 0.95)).collect();
+        assert!(matches!(
+            best_legend_corner(&upper_right, 3),
+            SeriesLabelPosition::LowerRight
+        ));
+        assert!(matches!(
+            best_legend_corner(&[], 3),
+            SeriesLabelPosition::UpperRight
+        ));
+    }
+
+    #[test]
+    fn downsampling_averages_blocks() {
+        // 2x2 image of one 2x2 block: values 0, 100, 200, 100 -> 100.
+        let big = [0, 0, 0, 100, 100, 100, 200, 200, 200, 100, 100, 100];
+        assert_eq!(downsample(&big, 1, 1, 2), vec![100, 100, 100]);
+    }
 }
