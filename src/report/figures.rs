@@ -338,16 +338,18 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("⟨Ω, ξ⟩", COMPONENT_COLORS[0], &table.t, &c)];
             draw_time_series(
                 root,
-                &format!(
-                    "Constraint ⟨Ω, ξ⟩ ({}); max |⟨Ω, ξ⟩| = {max:.2e}",
-                    opts.title
-                ),
-                "⟨Ω, ξ⟩",
-                &series,
-                YAxis::Symmetric,
-                false,
-                None,
-                segmented,
+                TimePlot {
+                    caption: format!(
+                        "Constraint ⟨Ω, ξ⟩ ({}); max |⟨Ω, ξ⟩| = {max:.2e}",
+                        opts.title
+                    ),
+                    y_desc: "⟨Ω, ξ⟩",
+                    series: &series,
+                    y_axis: YAxis::Symmetric,
+                    end_markers: false,
+                    reference: None,
+                    segmented,
+                },
             )
         }
         Figure::XiNorm => {
@@ -355,13 +357,15 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("|ξ|", COMPONENT_COLORS[0], &table.t, &n)];
             draw_time_series(
                 root,
-                &format!("Magnitude of the control vector |ξ| ({})", opts.title),
-                "|ξ|",
-                &series,
-                YAxis::Auto,
-                false,
-                Some((1.0, "|ξ| = 1")),
-                segmented,
+                TimePlot {
+                    caption: format!("Magnitude of the control vector |ξ| ({})", opts.title),
+                    y_desc: "|ξ|",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: false,
+                    reference: Some((1.0, "|ξ| = 1")),
+                    segmented,
+                },
             )
         }
         Figure::Kappa => {
@@ -374,13 +378,15 @@ fn draw<DB: DrawingBackend>(
                 .collect();
             draw_time_series(
                 root,
-                &format!("Costates κ(t) ({})", opts.title),
-                "κ",
-                &series,
-                YAxis::Auto,
-                true,
-                None,
-                segmented,
+                TimePlot {
+                    caption: format!("Costates κ(t) ({})", opts.title),
+                    y_desc: "κ",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: true,
+                    reference: None,
+                    segmented,
+                },
             )
         }
         Figure::OmegaComponents => {
@@ -402,13 +408,15 @@ fn draw<DB: DrawingBackend>(
             }
             draw_time_series(
                 root,
-                &format!("Body angular velocity Ω and desired Ω_d ({})", opts.title),
-                "Ω",
-                &series,
-                YAxis::Auto,
-                false,
-                None,
-                segmented,
+                TimePlot {
+                    caption: format!("Body angular velocity Ω and desired Ω_d ({})", opts.title),
+                    y_desc: "Ω",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: false,
+                    reference: None,
+                    segmented,
+                },
             )
         }
     };
@@ -440,6 +448,20 @@ macro_rules! draw_polyline {
             $chart.draw_series(LineSeries::new(points.iter().copied(), style))?
         }
     }};
+}
+
+/// What a time-series figure shows.
+struct TimePlot<'a> {
+    caption: String,
+    y_desc: &'a str,
+    series: &'a [Series<'a>],
+    y_axis: YAxis,
+    /// Green / red markers at the first / last point of every curve.
+    end_markers: bool,
+    /// A dashed horizontal reference line `(value, legend label)`.
+    reference: Option<(f64, &'a str)>,
+    /// Bitmap output: draw polylines segment by segment (see `draw_polyline!`).
+    segmented: bool,
 }
 
 /// One curve of a time-series plot.
@@ -612,14 +634,17 @@ fn best_legend_corner(points: &[(f64, f64)], entries: usize) -> SeriesLabelPosit
 
 fn draw_time_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    caption: &str,
-    y_desc: &str,
-    series: &[Series],
-    y_axis: YAxis,
-    end_markers: bool,
-    reference: Option<(f64, &str)>,
-    segmented: bool,
+    plot: TimePlot,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let TimePlot {
+        caption,
+        y_desc,
+        series,
+        y_axis,
+        end_markers,
+        reference,
+        segmented,
+    } = plot;
     let f = Fonts::for_size(root.dim_in_pixel());
     let (t0, t1) = finite_range(series.iter().flat_map(|s| s.t.iter())).unwrap_or((0.0, 1.0));
     let (t0, t1) = if t1 > t0 { (t0, t1) } else { padded((t0, t1)) };
@@ -654,7 +679,7 @@ fn draw_time_series<DB: DrawingBackend>(
 
     let hs = f64::from(root.dim_in_pixel().1) / 900.0;
     let mut chart = ChartBuilder::on(root)
-        .caption(caption, (FAMILY, f.title))
+        .caption(&caption, (FAMILY, f.title))
         .margin((20.0 * hs) as u32)
         .x_label_area_size((70.0 * hs) as u32)
         .y_label_area_size((130.0 * hs) as u32)
