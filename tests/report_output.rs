@@ -7,9 +7,9 @@ use std::fs;
 use std::path::{Path, PathBuf};
 use suslov::report::{
     parse_trajectory_csv, render_figure_bytes, write_atomic, write_case_figures,
-    write_summary_json, write_trajectory_csv, CaseSummary, EnergyEllipsoid, Figure, FigureFormat,
-    FigureOptions, ReportError, StabilityRun, StageSummary, Summary, TrajectoryTable,
-    TRAJECTORY_CSV_HEADER,
+    write_case_outputs, write_summary_json, write_trajectory_csv, CaseSummary, EnergyEllipsoid,
+    Figure, FigureFormat, FigureOptions, ReportError, StabilityRun, StageSummary, Summary,
+    TrajectoryTable, TRAJECTORY_CSV_HEADER,
 };
 
 const INERTIA: [f64; 3] = [1.0, 2.0, 3.0];
@@ -316,7 +316,8 @@ fn options(title: &str, format: FigureFormat) -> FigureOptions {
     }
 }
 
-fn check_png(p: &Path) {
+/// A complete PNG of the requested size that is not blank.
+fn check_png(p: &Path, size: (u32, u32)) {
     let b = fs::read(p).unwrap();
     assert!(
         b.len() > 10_000,
@@ -325,6 +326,31 @@ fn check_png(p: &Path) {
         b.len()
     );
     assert_eq!(&b[..8], b"\x89PNG\r\n\x1a\n", "{}", p.display());
+    let mut reader = png::Decoder::new(std::io::Cursor::new(b))
+        .read_info()
+        .unwrap();
+    let mut pixels = vec![0; reader.output_buffer_size()];
+    let info = reader.next_frame(&mut pixels).unwrap();
+    assert_eq!((info.width, info.height), size, "{}", p.display());
+    let pixels = &pixels[..info.buffer_size()];
+    let dark = pixels
+        .chunks(3)
+        .filter(|c| c.iter().all(|&v| v < 100))
+        .count();
+    let colored = pixels
+        .chunks(3)
+        .filter(|c| c.iter().max().unwrap() - c.iter().min().unwrap() > 80)
+        .count();
+    assert!(
+        dark > 1000,
+        "{}: no text or axes drawn ({dark})",
+        p.display()
+    );
+    assert!(
+        colored > 1000,
+        "{}: no coloured curves ({colored})",
+        p.display()
+    );
 }
 
 #[test]
@@ -347,7 +373,7 @@ fn png_figures_exist_and_are_valid() {
         ]
     );
     for p in &paths {
-        check_png(p);
+        check_png(p, (1200, 900));
     }
     no_temp_files(&d);
     assert_eq!(fs::read_dir(&d).unwrap().count(), 5);
@@ -360,9 +386,10 @@ fn png_figure_with_extended_desired_trajectory() {
     let tab = synthetic(2001, 9.84);
     let mut opts = options("eta = 0.01", FigureFormat::Png);
     opts.desired_extended = Some(synthetic(2001, 12.0).omega_d);
+    opts.size = (800, 600);
     let paths = write_case_figures(&d, &tab, &opts).unwrap();
     for p in &paths {
-        check_png(p);
+        check_png(p, (800, 600));
     }
 }
 
@@ -411,4 +438,25 @@ fn figures_survive_non_finite_samples_and_reject_bad_input() {
         ReportError::LengthMismatch { column: "xi", .. }
     ));
     assert!(!d.join("x").exists(), "nothing is created for bad data");
+}
+
+#[test]
+fn case_outputs_write_csv_and_figures_into_a_new_directory() {
+    let d = scratch("case_outputs");
+    let dir = d.join("runs/eta1");
+    let tab = synthetic(501, 11.36);
+    let paths = write_case_outputs(&dir, &tab, &options("eta = 1", FigureFormat::Svg)).unwrap();
+    assert_eq!(paths.len(), 6);
+    assert_eq!(paths[0], dir.join("trajectory.csv"));
+    let back = parse_trajectory_csv(&fs::read_to_string(&paths[0]).unwrap()).unwrap();
+    assert_eq!(back, tab);
+    for p in &paths {
+        assert!(fs::metadata(p).unwrap().len() > 0);
+    }
+    no_temp_files(&dir);
+    let mut bad = tab.clone();
+    bad.t.pop();
+    let err = write_case_outputs(d.join("bad"), &bad, &options("x", FigureFormat::Svg));
+    assert!(matches!(err, Err(ReportError::LengthMismatch { .. })));
+    assert!(!d.join("bad").exists());
 }

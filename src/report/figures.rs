@@ -326,6 +326,7 @@ fn draw<DB: DrawingBackend>(
     opts: &FigureOptions,
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
+    let segmented = opts.format == FigureFormat::Png;
     let result = match figure {
         Figure::Omega3d => draw_omega_3d(root, table, opts),
         Figure::Constraint => {
@@ -337,15 +338,19 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("⟨Ω, ξ⟩", COMPONENT_COLORS[0], &table.t, &c)];
             draw_time_series(
                 root,
-                &format!(
-                    "Constraint ⟨Ω, ξ⟩ ({}); max |⟨Ω, ξ⟩| = {max:.2e}",
-                    opts.title
-                ),
-                "⟨Ω, ξ⟩",
-                &series,
-                YAxis::Symmetric,
-                false,
-                opts,
+                TimePlot {
+                    caption: format!(
+                        "Constraint ⟨Ω, ξ⟩ ({}); max |⟨Ω, ξ⟩| = {max:.2e}",
+                        opts.title
+                    ),
+                    y_desc: "⟨Ω, ξ⟩",
+                    series: &series,
+                    y_axis: YAxis::Symmetric,
+                    end_markers: false,
+                    reference: None,
+                    dashed_note: None,
+                    segmented,
+                },
             )
         }
         Figure::XiNorm => {
@@ -353,12 +358,16 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("|ξ|", COMPONENT_COLORS[0], &table.t, &n)];
             draw_time_series(
                 root,
-                &format!("Magnitude of the control vector |ξ| ({})", opts.title),
-                "|ξ|",
-                &series,
-                YAxis::Auto,
-                false,
-                opts,
+                TimePlot {
+                    caption: format!("Magnitude of the control vector |ξ| ({})", opts.title),
+                    y_desc: "|ξ|",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: false,
+                    reference: Some((1.0, "|ξ| = 1")),
+                    dashed_note: None,
+                    segmented,
+                },
             )
         }
         Figure::Kappa => {
@@ -371,12 +380,16 @@ fn draw<DB: DrawingBackend>(
                 .collect();
             draw_time_series(
                 root,
-                &format!("Costates κ(t) ({})", opts.title),
-                "κ",
-                &series,
-                YAxis::Auto,
-                true,
-                opts,
+                TimePlot {
+                    caption: format!("Costates κ(t) ({})", opts.title),
+                    y_desc: "κ",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: true,
+                    reference: None,
+                    dashed_note: None,
+                    segmented,
+                },
             )
         }
         Figure::OmegaComponents => {
@@ -387,27 +400,74 @@ fn draw<DB: DrawingBackend>(
                 .map(|k| table.omega_d.iter().map(|v| v[k]).collect())
                 .collect();
             let names = ["Ω₁", "Ω₂", "Ω₃"];
-            let names_d = ["Ω_d,1", "Ω_d,2", "Ω_d,3"];
             let mut series: Vec<Series> = (0..3)
                 .map(|k| Series::new(names[k], COMPONENT_COLORS[k], &table.t, &om[k]))
                 .collect();
             for k in 0..3 {
-                let mut s = Series::new(names_d[k], COMPONENT_COLORS[k], &table.t, &od[k]);
+                // Unlabelled: one "dashed: Ω_d" legend entry explains all three.
+                let mut s = Series::new("", COMPONENT_COLORS[k], &table.t, &od[k]);
                 s.dashed = true;
                 series.push(s);
             }
             draw_time_series(
                 root,
-                &format!("Body angular velocity Ω and desired Ω_d ({})", opts.title),
-                "Ω",
-                &series,
-                YAxis::Auto,
-                false,
-                opts,
+                TimePlot {
+                    caption: format!("Body angular velocity Ω and desired Ω_d ({})", opts.title),
+                    y_desc: "Ω",
+                    series: &series,
+                    y_axis: YAxis::Auto,
+                    end_markers: false,
+                    reference: None,
+                    dashed_note: Some("dashed: Ω_d"),
+                    segmented,
+                },
             )
         }
     };
     result.map_err(|e| e.to_string())
+}
+
+/// Draws a wide polyline on a chart (2-D or 3-D) and evaluates to the series annotation.
+/// With `$segmented` (bitmap output) the line is drawn segment by segment with round joins:
+/// plotters joins wide polylines with unlimited miters, which shoot far out of the plot at
+/// the sharp turns of noisy data (the constraint is rounding noise). SVG viewers apply a
+/// miter limit themselves, so SVG output keeps one compact `<polyline>`.
+macro_rules! draw_polyline {
+    ($chart:expr, $points:expr, $color:expr, $width:expr, $segmented:expr) => {{
+        let points = $points;
+        let color: RGBColor = $color;
+        let width: u32 = $width;
+        let style = color.stroke_width(width);
+        if $segmented {
+            let join = (f64::from(width) / 2.0).floor() as i32;
+            if join >= 1 {
+                $chart.draw_series(points.iter().map(|&p| Circle::new(p, join, color.filled())))?;
+            }
+            $chart.draw_series(
+                points
+                    .windows(2)
+                    .map(|w| PathElement::new(vec![w[0], w[1]], style)),
+            )?
+        } else {
+            $chart.draw_series(LineSeries::new(points.iter().copied(), style))?
+        }
+    }};
+}
+
+/// What a time-series figure shows.
+struct TimePlot<'a> {
+    caption: String,
+    y_desc: &'a str,
+    series: &'a [Series<'a>],
+    y_axis: YAxis,
+    /// Green / red markers at the first / last point of every curve.
+    end_markers: bool,
+    /// A dashed horizontal reference line `(value, legend label)`.
+    reference: Option<(f64, &'a str)>,
+    /// A legend entry with a grey dashed sample explaining the dashed curves.
+    dashed_note: Option<&'a str>,
+    /// Bitmap output: draw polylines segment by segment (see `draw_polyline!`).
+    segmented: bool,
 }
 
 /// One curve of a time-series plot.
@@ -469,10 +529,13 @@ fn finite_range<'a>(values: impl Iterator<Item = &'a f64>) -> Option<(f64, f64)>
 
 /// Pads a data range by 5 % on each side; a degenerate range gets a sensible width.
 fn padded((lo, hi): (f64, f64)) -> (f64, f64) {
+    let magnitude = lo.abs().max(hi.abs());
+    if magnitude == 0.0 {
+        return (-1.0, 1.0);
+    }
     let span = hi - lo;
-    let min_span = 1e-9 * lo.abs().max(hi.abs()).max(1e-300);
-    if span <= min_span {
-        let half = (0.05 * lo.abs().max(hi.abs())).max(1e-12);
+    if span <= 1e-9 * magnitude {
+        let half = 0.05 * magnitude;
         return (lo - half, hi + half);
     }
     (lo - 0.05 * span, hi + 0.05 * span)
@@ -545,11 +608,9 @@ const LEGEND_CORNERS: [SeriesLabelPosition; 4] = [
     SeriesLabelPosition::LowerLeft,
 ];
 
-/// The corner whose legend-sized box covers the fewest data points (`points` in `[0,1]²`,
-/// y upwards).
-fn best_legend_corner(points: &[(f64, f64)], entries: usize) -> SeriesLabelPosition {
-    let w = 0.24;
-    let h = (0.07 * entries as f64 + 0.04).min(0.9);
+/// The corner whose legend box (`w × h`, as fractions of the plotting area) covers the fewest
+/// data points (`points` in `[0,1]²`, y upwards), and that count.
+fn best_legend_corner(points: &[(f64, f64)], w: f64, h: f64) -> (SeriesLabelPosition, usize) {
     let count = |right: bool, upper: bool| {
         points
             .iter()
@@ -572,28 +633,40 @@ fn best_legend_corner(points: &[(f64, f64)], entries: usize) -> SeriesLabelPosit
             best = k;
         }
     }
-    LEGEND_CORNERS[best].clone()
+    (LEGEND_CORNERS[best].clone(), counts[best])
 }
 
 fn draw_time_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    caption: &str,
-    y_desc: &str,
-    series: &[Series],
-    y_axis: YAxis,
-    end_markers: bool,
-    opts: &FigureOptions,
+    plot: TimePlot,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
-    let f = Fonts::for_size(root.dim_in_pixel());
+    let TimePlot {
+        caption,
+        y_desc,
+        series,
+        y_axis,
+        end_markers,
+        reference,
+        dashed_note,
+        segmented,
+    } = plot;
+    let (root_w, root_h) = root.dim_in_pixel();
+    let f = Fonts::for_size((root_w, root_h));
+    let hs = f64::from(root_h) / 900.0;
     let (t0, t1) = finite_range(series.iter().flat_map(|s| s.t.iter())).unwrap_or((0.0, 1.0));
     let (t0, t1) = if t1 > t0 { (t0, t1) } else { padded((t0, t1)) };
-    let data = finite_range(series.iter().flat_map(|s| s.y.iter()));
+    let data = finite_range(
+        series
+            .iter()
+            .flat_map(|s| s.y.iter())
+            .chain(reference.as_ref().map(|(v, _)| v)),
+    );
     let magnitude = data.map_or(0.0, |(lo, hi)| lo.abs().max(hi.abs()));
     // Very small or large values are plotted in units of 10^e (plotters' tick search needs
     // O(1) numbers; the constraint is ~1e-12).
     let e = display_exponent(magnitude);
     let unit = 10f64.powi(e);
-    let (y0, y1) = match y_axis {
+    let (y0, mut y1) = match y_axis {
         YAxis::Symmetric => {
             let m = magnitude / unit;
             let m = if m > 0.0 { 1.15 * m } else { 1.0 };
@@ -601,6 +674,74 @@ fn draw_time_series<DB: DrawingBackend>(
         }
         YAxis::Auto => padded(data.map_or((-1.0, 1.0), |(lo, hi)| (lo / unit, hi / unit))),
     };
+    let runs: Vec<Vec<Vec<(f64, f64)>>> = series
+        .iter()
+        .map(|s| {
+            finite_runs(s.t, s.y)
+                .into_iter()
+                .map(|run| run.into_iter().map(|(a, b)| (a, b / unit)).collect())
+                .collect()
+        })
+        .collect();
+    let markers: Vec<((f64, f64), (f64, f64))> = if end_markers {
+        runs.iter()
+            .filter_map(|r| Some((*r.first()?.first()?, *r.last()?.last()?)))
+            .collect()
+    } else {
+        Vec::new()
+    };
+
+    // Legend: entries, size, and a corner free of data; if every corner has data, head room
+    // is added above the curves for it.
+    let mut labels: Vec<&str> = series
+        .iter()
+        .map(|s| s.name)
+        .filter(|n| !n.is_empty())
+        .collect();
+    labels.extend(reference.as_ref().map(|(_, l)| *l));
+    labels.extend(dashed_note);
+    if end_markers {
+        labels.extend(["start", "end"]);
+    }
+    let entries = labels.len();
+    let legend_len = (44.0 * hs) as i32;
+    let legend_margin = 15.0 * hs;
+    let max_chars = labels.iter().map(|l| l.chars().count()).max().unwrap_or(0);
+    // Estimates of the plotting area and legend box sizes (label areas, margins, caption),
+    // measured on rendered figures, slightly generous.
+    let plot_w_est = (f64::from(root_w) - 170.0 * hs).max(1.0);
+    let plot_h_est = (f64::from(root_h) - 150.0 * hs).max(1.0);
+    let legend_w = (max_chars as f64 * 0.55 * f.legend
+        + f64::from(legend_len)
+        + 12.0 * hs
+        + 2.5 * legend_margin)
+        / plot_w_est;
+    let legend_h = (entries as f64 * 1.2 * f.legend + 2.5 * legend_margin) / plot_h_est;
+    let normalized = |y_top: f64| -> Vec<(f64, f64)> {
+        let to_unit = |(a, b): (f64, f64)| ((a - t0) / (t1 - t0), (b - y0) / (y_top - y0));
+        let mut pts: Vec<(f64, f64)> = runs
+            .iter()
+            .flatten()
+            .flatten()
+            .map(|&p| to_unit(p))
+            .collect();
+        // The legend must not hide a marker: they weigh like many curve points.
+        for &(p, q) in &markers {
+            pts.extend(std::iter::repeat_n(to_unit(p), 200));
+            pts.extend(std::iter::repeat_n(to_unit(q), 200));
+        }
+        pts
+    };
+    let mut corner = SeriesLabelPosition::UpperRight;
+    if entries > 1 {
+        let (c, covered) = best_legend_corner(&normalized(y1), legend_w, legend_h);
+        corner = c;
+        if covered > 0 && legend_h < 0.6 {
+            y1 = y0 + (y1 - y0) / (1.0 - legend_h - 0.02);
+            corner = best_legend_corner(&normalized(y1), legend_w, legend_h).0;
+        }
+    }
+
     let y_desc = if e == 0 {
         y_desc.to_string()
     } else {
@@ -611,9 +752,8 @@ fn draw_time_series<DB: DrawingBackend>(
     let y_fmt = move |v: &f64| tick_label(*v, y_step);
     let t_fmt = move |v: &f64| tick_label(*v, t_step);
 
-    let hs = f64::from(root.dim_in_pixel().1) / 900.0;
     let mut chart = ChartBuilder::on(root)
-        .caption(caption, (FAMILY, f.title))
+        .caption(&caption, (FAMILY, f.title))
         .margin((20.0 * hs) as u32)
         .x_label_area_size((70.0 * hs) as u32)
         .y_label_area_size((130.0 * hs) as u32)
@@ -635,76 +775,66 @@ fn draw_time_series<DB: DrawingBackend>(
     // Noise-like data (the constraint) reads better with a thinner line.
     let line_px = if y_axis == YAxis::Symmetric { 1.5 } else { 2.5 };
     let width = (line_px * hs).max(1.0) as u32;
-    let legend_len = (44.0 * hs) as i32;
     let (plot_w, plot_h) = chart.plotting_area().dim_in_pixel();
     let px_per_t = f64::from(plot_w) / (t1 - t0);
     let px_per_y = f64::from(plot_h) / (y1 - y0);
-    let mut unit_points = Vec::new();
-    for s in series {
+    let dashed_legend = move |(x, y): (i32, i32), style: ShapeStyle| {
+        let d = legend_len * 2 / 5;
+        EmptyElement::at((x, y))
+            + PathElement::new(vec![(0, 0), (d, 0)], style)
+            + PathElement::new(vec![(legend_len - d, 0), (legend_len, 0)], style)
+    };
+    for (s, s_runs) in series.iter().zip(&runs) {
         let style = s.color.stroke_width(width);
         let mut first = true;
-        for run in finite_runs(s.t, s.y) {
-            let run: Vec<(f64, f64)> = run.into_iter().map(|(a, b)| (a, b / unit)).collect();
-            let run = thin_out(&run, 1.5 * hs, |p, q| {
+        for run in s_runs {
+            let run = thin_out(run, 1.5 * hs, |p, q| {
                 (((p.0 - q.0) * px_per_t).powi(2) + ((p.1 - q.1) * px_per_y).powi(2)).sqrt()
             });
-            unit_points.extend(
-                run.iter()
-                    .map(|&(a, b)| ((a - t0) / (t1 - t0), (b - y0) / (y1 - y0))),
-            );
             let anno = if s.dashed {
                 let dash = (14.0 * hs) as u32;
                 chart.draw_series(DashedLineSeries::new(run, dash, dash * 2 / 3, style))?
             } else {
-                // Segment by segment with round joins: plotters joins wide polylines with
-                // unlimited miters, which shoot far out of the plot at the sharp turns of
-                // noisy data (the constraint is rounding noise).
-                let join = (f64::from(width) / 2.0).floor() as i32;
-                if join >= 1 {
-                    chart
-                        .draw_series(run.iter().map(|&p| Circle::new(p, join, s.color.filled())))?;
-                }
-                chart.draw_series(
-                    run.windows(2)
-                        .map(|w| PathElement::new(vec![w[0], w[1]], style)),
-                )?
+                draw_polyline!(chart, &run, s.color, width, segmented)
             };
-            if first {
+            if first && !s.name.is_empty() {
                 let dashed = s.dashed;
-                let c = s.color;
                 anno.label(s.name).legend(move |(x, y)| {
-                    let style = c.stroke_width(width);
                     if dashed {
-                        let d = legend_len * 2 / 5;
-                        EmptyElement::at((x, y))
-                            + PathElement::new(vec![(0, 0), (d, 0)], style)
-                            + PathElement::new(vec![(legend_len - d, 0), (legend_len, 0)], style)
+                        dashed_legend((x, y), style)
                     } else {
                         EmptyElement::at((x, y))
                             + PathElement::new(vec![(0, 0), (legend_len, 0)], style)
                             + PathElement::new(vec![(0, 0), (0, 0)], style)
                     }
                 });
-                first = false;
             }
+            first = false;
         }
     }
-    let mut entries = series.len();
+    if let Some((v, label)) = reference {
+        let v = v / unit;
+        let style = BLACK.mix(0.5).stroke_width((1.5 * hs).max(1.0) as u32);
+        let dash = (10.0 * hs) as u32;
+        chart
+            .draw_series(DashedLineSeries::new([(t0, v), (t1, v)], dash, dash, style))?
+            .label(label)
+            .legend(move |p| dashed_legend(p, style));
+    }
+    if let Some(note) = dashed_note {
+        let style = BLACK.mix(0.6).stroke_width(width);
+        chart
+            .draw_series(std::iter::empty::<PathElement<(f64, f64)>>())?
+            .label(note)
+            .legend(move |p| dashed_legend(p, style));
+    }
     if end_markers {
         let r = (7.0 * hs).max(2.0) as i32;
-        for s in series {
-            let pts: Vec<(f64, f64)> =
-                s.t.iter()
-                    .zip(s.y)
-                    .map(|(&a, &b)| (a, b / unit))
-                    .filter(|(a, b)| a.is_finite() && b.is_finite())
-                    .collect();
-            if let (Some(&p), Some(&q)) = (pts.first(), pts.last()) {
-                chart.draw_series([
-                    Circle::new(p, r, START_COLOR.filled()),
-                    Circle::new(q, r, END_COLOR.filled()),
-                ])?;
-            }
+        for &(p, q) in &markers {
+            chart.draw_series([
+                Circle::new(p, r, START_COLOR.filled()),
+                Circle::new(q, r, END_COLOR.filled()),
+            ])?;
         }
         chart
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
@@ -714,17 +844,16 @@ fn draw_time_series<DB: DrawingBackend>(
             .draw_series(std::iter::empty::<Circle<(f64, f64), i32>>())?
             .label("end")
             .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), r, END_COLOR.filled()));
-        entries += 2;
     }
     if entries > 1 {
         chart
             .configure_series_labels()
             .label_font((FAMILY, f.legend))
             .legend_area_size(legend_len + (12.0 * hs) as i32)
-            .margin((15.0 * hs) as u32)
+            .margin(legend_margin as u32)
             .background_style(WHITE.mix(0.9))
             .border_style(BLACK.mix(0.4))
-            .position(best_legend_corner(&unit_points, entries))
+            .position(corner)
             .draw()?;
     }
     Ok(())
@@ -799,6 +928,7 @@ fn draw_omega_3d<DB: DrawingBackend>(
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let f = Fonts::for_size(root.dim_in_pixel());
     let hs = f64::from(root.dim_in_pixel().1) / 900.0;
+    let segmented = opts.format == FigureFormat::Png;
     let e = &opts.ellipsoid;
     let omega: Vec<[f64; 3]> = table
         .omega
@@ -881,15 +1011,13 @@ fn draw_omega_3d<DB: DrawingBackend>(
         ("ξ_∥ (control, on E)", &xi_par, XI_COLOR),
     ];
     for (name, pts, color) in curves {
-        chart
-            .draw_series(LineSeries::new(
-                thin_out(pts, 0.006 * r, |a, b| {
-                    norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
-                })
-                .into_iter()
-                .map(to_chart),
-                color.stroke_width(width),
-            ))?
+        let thinned: Vec<(f64, f64, f64)> = thin_out(pts, 0.006 * r, |a, b| {
+            norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+        })
+        .into_iter()
+        .map(to_chart)
+        .collect();
+        draw_polyline!(chart, &thinned, color, width, segmented)
             .label(name)
             .legend(move |(x, y)| {
                 PathElement::new(vec![(x, y), (x + legend_len, y)], color.stroke_width(width))
@@ -941,4 +1069,91 @@ fn draw_omega_3d<DB: DrawingBackend>(
         .position(SeriesLabelPosition::UpperLeft)
         .draw()?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table(n: usize, f: impl Fn(f64) -> f64) -> TrajectoryTable {
+        let mut tab = TrajectoryTable::default();
+        for i in 0..n {
+            let t = i as f64 * 0.1;
+            let v = f(t);
+            tab.t.push(t);
+            tab.omega.push([5.0, v, 0.0]);
+            tab.xi.push([0.0, 1.0 + v, 0.0]);
+            tab.xi_dot.push([v; 3]);
+            tab.kappa.push([v, -v, 2.0 * v]);
+            tab.omega_d.push([5.0, 0.0, v]);
+        }
+        tab
+    }
+
+    fn opts(format: FigureFormat) -> FigureOptions {
+        let e = EnergyEllipsoid::through([1.0, 2.0, 3.0], [5.0, 0.0, 0.0]).unwrap();
+        FigureOptions {
+            format,
+            size: (400, 300),
+            ..FigureOptions::new("edge case", e)
+        }
+    }
+
+    /// Degenerate data must still give a figure (no panic in plotters' tick search).
+    #[test]
+    fn degenerate_data_render() {
+        let cases: Vec<(&str, TrajectoryTable)> = vec![
+            ("one row", table(1, |_| 0.3)),
+            ("all zero", table(50, |_| 0.0)),
+            ("constant", table(50, |_| 0.25)),
+            ("tiny variation", table(50, |t| 1e-13 * t)),
+            ("relative 1e-8", table(50, |t| 1.0 + 1e-8 * t)),
+            ("huge", table(50, |t| 1e250 * (t - 2.0))),
+            ("tiny", table(50, |t| 1e-250 * (t - 2.0))),
+        ];
+        for (name, tab) in cases {
+            for format in [FigureFormat::Png, FigureFormat::Svg] {
+                for fig in Figure::ALL {
+                    let bytes = render_figure_bytes(fig, &tab, &opts(format))
+                        .unwrap_or_else(|e| panic!("{name} {fig:?}: {e}"));
+                    assert!(bytes.len() > 100, "{name} {fig:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn tick_steps_and_labels() {
+        assert_eq!(tick_step(0.0, 11.36, 10), 2.0);
+        assert_eq!(tick_step(0.97, 1.03, 10), 0.01);
+        assert_eq!(tick_label(1.0, 0.01), "1.00");
+        assert_eq!(tick_label(-1e-18, 0.5), "0.0");
+        assert_eq!(tick_label(4.0, 2.0), "4");
+        assert_eq!(power_of_ten(-16), "10⁻¹⁶");
+        assert_eq!(power_of_ten(250), "10²⁵⁰");
+        assert_eq!(display_exponent(6.6e-16), -16);
+        assert_eq!(display_exponent(3.0), 0);
+        assert_eq!(display_exponent(0.0), 0);
+    }
+
+    #[test]
+    fn legend_goes_where_the_data_is_not() {
+        let upper_right: Vec<(f64, f64)> =
+            (0..100).map(|i| (0.9 + i as f64 * 1e-3, 0.95)).collect();
+        assert!(matches!(
+            best_legend_corner(&upper_right, 0.2, 0.2),
+            (SeriesLabelPosition::LowerRight, 0)
+        ));
+        assert!(matches!(
+            best_legend_corner(&[], 0.2, 0.2).0,
+            SeriesLabelPosition::UpperRight
+        ));
+    }
+
+    #[test]
+    fn downsampling_averages_blocks() {
+        // 2x2 image of one 2x2 block: values 0, 100, 200, 100 -> 100.
+        let big = [0, 0, 0, 100, 100, 100, 200, 200, 200, 100, 100, 100];
+        assert_eq!(downsample(&big, 1, 1, 2), vec![100, 100, 100]);
+    }
 }

@@ -37,3 +37,37 @@ pub use summary::{
     StageSummary, Summary,
 };
 pub use table::{dot, norm, EnergyEllipsoid, TableStats, TrajectoryTable};
+
+use std::path::{Path, PathBuf};
+
+/// File name of the trajectory table written by [`write_case_outputs`].
+pub const TRAJECTORY_CSV_NAME: &str = "trajectory.csv";
+
+/// Writes everything about one case into `dir` (created if missing): [`TRAJECTORY_CSV_NAME`]
+/// and the figures of [`write_case_figures`]. Returns the paths written, CSV first.
+///
+/// The data are checked before anything is written, so bad input leaves no files.
+///
+/// # Errors
+/// As [`write_trajectory_csv`] and [`write_case_figures`].
+pub fn write_case_outputs(
+    dir: impl AsRef<Path>,
+    table: &TrajectoryTable,
+    opts: &FigureOptions,
+) -> Result<Vec<PathBuf>, ReportError> {
+    let dir = dir.as_ref();
+    let csv = trajectory_csv_string(table)?;
+    if table.is_empty() {
+        return Err(ReportError::EmptyTable);
+    }
+    opts.ellipsoid.check()?;
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.to_path_buf(),
+        source,
+    })?;
+    let csv_path = dir.join(TRAJECTORY_CSV_NAME);
+    write_atomic(&csv_path, csv.as_bytes())?;
+    let mut paths = vec![csv_path];
+    paths.extend(write_case_figures(dir, table, opts)?);
+    Ok(paths)
+}
