@@ -1369,6 +1369,12 @@ mod tests {
         assert_eq!(out.status, ArclengthStatus::ReachedStop, "{}", out.status);
         assert_eq!(calls, out.records.len());
         assert_eq!(out.lambda, 1.0);
+        // A fixed-λ first step, then arclength steps, then the fixed-λ solve at λ = 1.
+        let last = out.records.last().expect("records");
+        assert!(!out.records[0].arclength && !last.arclength && last.lambda == 1.0);
+        assert!(out.records[1..out.records.len() - 1]
+            .iter()
+            .all(|r| r.arclength));
         assert_eq!(out.folds.len(), 1, "{:?}", out.folds);
         let fold = out.folds[0];
         assert!(fold.maximum);
@@ -1475,6 +1481,54 @@ mod tests {
         assert_eq!(out.folds.len(), 1);
         let err = max_error(&out.solution, &upper_exact(3.0));
         assert!(err < 1e-6, "max error {err:e}");
+        eprintln!(
+            "natural stopped at {reached:.6}; arclength: fold {:.10}, error at λ = 3 {err:.2e}, \
+             {} steps",
+            out.folds[0].lambda,
+            out.steps()
+        );
+    }
+
+    /// Bratu, except that the member at exactly `λ = 2` returns NaN.
+    struct Poisoned(Bratu);
+
+    impl BvpProblem for Poisoned {
+        fn n(&self) -> usize {
+            2
+        }
+        fn f(&self, x: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
+            self.0.f(x, y, p, dy);
+            if self.0.lambda == 2.0 {
+                dy[1] = f64::NAN;
+            }
+        }
+        fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], r: &mut [f64]) {
+            self.0.bc(ya, yb, p, r);
+        }
+    }
+
+    #[test]
+    fn a_failed_solve_at_lambda_stop_keeps_the_point_past_it() {
+        let start = lower_branch(1.0, false);
+        let out = pseudo_arclength(
+            |lambda| Poisoned(family(false, true)(lambda)),
+            1.0,
+            &start,
+            |s| s.eval(0.5)[0],
+            &arclength_options(2.0),
+            &mut |_| {},
+        )
+        .expect("valid input");
+        assert_eq!(
+            out.status,
+            ArclengthStatus::StopNotConverged {
+                last_failure: Status::NonFinite
+            }
+        );
+        assert!(out.lambda > 2.0 && out.solution.is_success());
+        assert_eq!(out.branch.last().expect("points").lambda, out.lambda);
+        let last = out.records.last().expect("records");
+        assert!(!last.accepted && !last.arclength && last.lambda == 2.0);
     }
 
     #[test]
