@@ -73,9 +73,10 @@
 //! boundary conditions, a standard problem for [`bvp::solve`]. Its Jacobians are analytic in
 //! the structural parts (`∂f/∂y` and `∂f/∂p` from the member's [`BvpProblem::jac`], the `z`
 //! row `w_y τ_y(x)^T`, the two new boundary rows), with forward differences in `λ` (one extra
-//! member `family(λ + h)`, `h = sqrt(eps)(1 + |λ|)`, cached while `λ` is unchanged), and
-//! forward differences in `y`, `p` where the member declines to give a Jacobian. The member
-//! `family(λ)` itself is cached too, so a cheap family closure is enough but is not required.
+//! member `family(λ + h)`, `h = sqrt(eps)(1 + |λ|)`), and forward differences in `y`, `p`
+//! where the member declines to give a Jacobian. The members at `λ` and `λ + h` are cached
+//! while `λ` does not change (about two family constructions per Newton iteration), so the
+//! family closure need not be cheap.
 //!
 //! # Predictor, corrector, step control
 //!
@@ -524,28 +525,42 @@ impl Scratch {
     }
 }
 
-/// A member `family(λ)` built on demand and kept while `λ` does not change.
+/// Members `family(λ)` built on demand and kept while used: two slots, so that the member
+/// at `λ` and the shifted one at `λ + h` of a difference quotient (ours, or the solver's
+/// when it differentiates the augmented problem itself) are both kept.
 struct MemberCache<'a, P> {
     family: &'a dyn Fn(f64) -> P,
-    slot: RefCell<Option<(f64, P)>>,
+    /// The slots and the index of the most recently used one.
+    slots: RefCell<([Option<(f64, P)>; 2], usize)>,
 }
 
 impl<'a, P> MemberCache<'a, P> {
     fn new(family: &'a dyn Fn(f64) -> P) -> Self {
         Self {
             family,
-            slot: RefCell::new(None),
+            slots: RefCell::new(([None, None], 0)),
         }
     }
+
+    /// `g(family(lambda))`, building the member only if neither slot holds it.
     fn with<R>(&self, lambda: f64, g: impl FnOnce(&P) -> R) -> R {
-        let mut slot = self.slot.borrow_mut();
-        if slot
-            .as_ref()
-            .is_none_or(|(l, _)| l.to_bits() != lambda.to_bits())
-        {
-            *slot = Some((lambda, (self.family)(lambda)));
-        }
-        g(&slot.as_ref().expect("just filled").1)
+        let mut cache = self.slots.borrow_mut();
+        let (slots, recent) = &mut *cache;
+        let hit = |s: &Option<(f64, P)>| {
+            s.as_ref()
+                .is_some_and(|(l, _)| l.to_bits() == lambda.to_bits())
+        };
+        let i = match (hit(&slots[*recent]), hit(&slots[1 - *recent])) {
+            (true, _) => *recent,
+            (false, true) => 1 - *recent,
+            (false, false) => {
+                let i = 1 - *recent;
+                slots[i] = Some((lambda, (self.family)(lambda)));
+                i
+            }
+        };
+        *recent = i;
+        g(&slots[i].as_ref().expect("hit or just filled").1)
     }
 }
 
@@ -564,8 +579,7 @@ struct Arclength<'a, P> {
     weights: Weights,
     secant: Secant<'a>,
     ds: f64,
-    member: MemberCache<'a, P>,
-    shifted: MemberCache<'a, P>,
+    members: MemberCache<'a, P>,
     scratch: RefCell<Scratch>,
 }
 
@@ -580,8 +594,7 @@ impl<'a, P: BvpProblem> Arclength<'a, P> {
             weights,
             secant,
             ds,
-            member: MemberCache::new(family),
-            shifted: MemberCache::new(family),
+            members: MemberCache::new(family),
             scratch: RefCell::new(Scratch::new(n, k)),
         }
     }
@@ -598,7 +611,7 @@ impl<P: BvpProblem> BvpProblem for Arclength<'_, P> {
 
     fn f(&self, x: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
         let (n, k) = (self.n, self.k);
-        self.member
+        self.members
             .with(p[k], |m| m.f(x, &y[..n], &p[..k], &mut dy[..n]));
         let mut s = self.scratch.borrow_mut();
         let Scratch { y: yj, t, .. } = &mut *s;
@@ -613,14 +626,14 @@ impl<P: BvpProblem> BvpProblem for Arclength<'_, P> {
         let (ys, ps) = (&y[..n], &p[..k]);
         let mut s = self.scratch.borrow_mut();
         let s = &mut *s;
-        self.member.with(lambda, |m| {
+        self.members.with(lambda, |m| {
             m.f(x, ys, ps, &mut s.f0);
             if !m.jac(x, ys, ps, &mut s.jy, &mut s.jp) {
                 estimate_fun_jac(m, x, ys, ps, &s.f0, &mut s.jy, &mut s.jp, &mut s.work);
             }
         });
         let h = lambda_step(lambda);
-        self.shifted.with(lambda + h, |m| m.f(x, ys, ps, &mut s.fh));
+        self.members.with(lambda + h, |m| m.f(x, ys, ps, &mut s.fh));
         dfdy.fill(0.0);
         dfdp.fill(0.0);
         for i in 0..n {
@@ -637,7 +650,7 @@ impl<P: BvpProblem> BvpProblem for Arclength<'_, P> {
 
     fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
         let (n, k) = (self.n, self.k);
-        self.member.with(p[k], |m| {
+        self.members.with(p[k], |m| {
             m.bc(&ya[..n], &yb[..n], &p[..k], &mut res[..n + k]);
         });
         res[n + k] = ya[n];
@@ -666,7 +679,7 @@ impl<P: BvpProblem> BvpProblem for Arclength<'_, P> {
         let (yas, ybs, ps) = (&ya[..n], &yb[..n], &p[..k]);
         let mut s = self.scratch.borrow_mut();
         let s = &mut *s;
-        self.member.with(lambda, |g| {
+        self.members.with(lambda, |g| {
             g.bc(yas, ybs, ps, &mut s.g0);
             if !g.bc_jac(yas, ybs, ps, &mut s.dya, &mut s.dyb, &mut s.dp) {
                 estimate_bc_jac(
@@ -683,7 +696,7 @@ impl<P: BvpProblem> BvpProblem for Arclength<'_, P> {
             }
         });
         let h = lambda_step(lambda);
-        self.shifted
+        self.members
             .with(lambda + h, |g| g.bc(yas, ybs, ps, &mut s.gh));
         dya.fill(0.0);
         dyb.fill(0.0);
@@ -1448,6 +1461,33 @@ mod tests {
         assert_eq!(fold.monitor, b[fold.index].monitor);
         assert!(fold.arclength > b[fold.index - 1].arclength);
         assert!(fold.arclength < b[fold.index + 1].arclength);
+    }
+
+    #[test]
+    fn family_members_are_cached() {
+        let start = lower_branch(1.0, false);
+        let built = std::cell::Cell::new(0usize);
+        let counting = |lambda| {
+            built.set(built.get() + 1);
+            family(false, true)(lambda)
+        };
+        let out = pseudo_arclength(
+            counting,
+            1.0,
+            &start,
+            |s| s.eval(0.5)[0],
+            &arclength_options(1.0),
+            &mut |_| {},
+        )
+        .expect("valid input");
+        assert_eq!(out.status, ArclengthStatus::ReachedStop);
+        let newton = out.newton_iterations() + out.folds[0].refinement_solves * 8;
+        eprintln!(
+            "{} members built, {} Newton iterations",
+            built.get(),
+            out.newton_iterations()
+        );
+        assert!(built.get() <= 3 * newton, "{} > 3 * {newton}", built.get());
     }
 
     #[test]
