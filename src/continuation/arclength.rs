@@ -531,8 +531,11 @@ impl Scratch {
 struct MemberCache<'a, P> {
     family: &'a dyn Fn(f64) -> P,
     /// The slots and the index of the most recently used one.
-    slots: RefCell<([Option<(f64, P)>; 2], usize)>,
+    slots: RefCell<([Slot<P>; 2], usize)>,
 }
+
+/// A member and its `λ`.
+type Slot<P> = Option<(f64, P)>;
 
 impl<'a, P> MemberCache<'a, P> {
     fn new(family: &'a dyn Fn(f64) -> P) -> Self {
@@ -546,7 +549,7 @@ impl<'a, P> MemberCache<'a, P> {
     fn with<R>(&self, lambda: f64, g: impl FnOnce(&P) -> R) -> R {
         let mut cache = self.slots.borrow_mut();
         let (slots, recent) = &mut *cache;
-        let hit = |s: &Option<(f64, P)>| {
+        let hit = |s: &Slot<P>| {
             s.as_ref()
                 .is_some_and(|(l, _)| l.to_bits() == lambda.to_bits())
         };
