@@ -16,6 +16,17 @@
 //!    and why. Every attempt is recorded in [`Outcome::records`].
 //!
 //! The caller's solutions are never modified; guesses are built from copies.
+//!
+//! Natural-parameter continuation stops at a fold (turning point) of the branch, where the
+//! fixed-`λ` problem becomes singular. [`pseudo_arclength`] (module [`arclength`]) follows
+//! the branch through folds, reports them and records a branch diagram.
+
+pub mod arclength;
+
+pub use arclength::{
+    pseudo_arclength, ArclengthOptions, ArclengthOutcome, ArclengthStatus, ArclengthStep,
+    BranchPoint, Fold,
+};
 
 use crate::bvp::{self, BvpProblem, Guess, Solution, Status};
 
