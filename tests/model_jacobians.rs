@@ -31,7 +31,7 @@ fn step(x: f64) -> f64 {
 
 /// All Jacobian checks at one point; returns the list of failing entries.
 fn check_point(rng: &mut Rng, perturb: Option<(usize, usize, f64)>) -> Vec<String> {
-    let admissible = rng.next_u64() % 2 == 0;
+    let admissible = rng.next_u64().is_multiple_of(2);
     let y = modelkit::random_state(rng, admissible);
     let p = modelkit::random_params(rng);
     let path = Path::random(rng);
