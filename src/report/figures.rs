@@ -803,6 +803,8 @@ fn draw_time_series<DB: DrawingBackend>(
                     if dashed {
                         dashed_legend((x, y), style)
                     } else {
+                        // Same element type as the dashed sample: a full line plus an empty
+                        // second path.
                         EmptyElement::at((x, y))
                             + PathElement::new(vec![(0, 0), (legend_len, 0)], style)
                             + PathElement::new(vec![(0, 0), (0, 0)], style)

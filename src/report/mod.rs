@@ -11,6 +11,26 @@
 //!   `constraint`, `xi_norm`, `kappa` and `omega`, as PNG by default (text drawn from an
 //!   embedded font, so no system font library is needed) or SVG.
 //!
+//! ## Figures
+//!
+//! One directory per case, files `<stem>.png` (or `.svg`), titles carrying the case name:
+//!
+//! | stem | content |
+//! | --- | --- |
+//! | `omega_3d` | 3-D view of Ω(t), Ω_d(t) and ξ_∥(t) (ξ projected along its ray onto `E`), wireframe of the energy ellipsoid `E`, coordinate axes Ω₁, Ω₂, Ω₃ through the origin; green marker at the start and red at the end of each curve, yellow at Ω_d(b) when [`FigureOptions::desired_extended`] is given |
+//! | `constraint` | ⟨Ω, ξ⟩ against t, symmetric y range in units of a power of ten (e.g. `[×10⁻¹²]`), max \|⟨Ω, ξ⟩\| in the title |
+//! | `xi_norm` | \|ξ\| against t with a dashed reference line at 1 |
+//! | `kappa` | κ₁, κ₂, κ₃ against t with start / end markers and a legend |
+//! | `omega` | Ω₁, Ω₂, Ω₃ (solid) and Ω_d (dashed, same colours) against t |
+//!
+//! **Format.** PNG is the default: `plotters`' `ab_glyph` feature rasterises text from a
+//! subset of DejaVu Sans embedded in the library (`src/report/font/`, Bitstream Vera
+//! licence), so neither building nor running needs fontconfig, freetype or any installed
+//! font (the `ttf` feature would need fontconfig/freetype via `font-kit`). PNGs are drawn at
+//! twice the size and averaged down (plotters' bitmap lines are not anti-aliased) and
+//! encoded in memory by `png`. SVG ([`FigureFormat::Svg`]) is available for vector output;
+//! its text is SVG `<text>` shown in the viewer's sans-serif font.
+//!
 //! Every file is written with [`write_atomic`] (temporary file in the same directory, fsync,
 //! rename): a reader never sees a half-written file, and a failed write leaves the previous
 //! file in place and no temporary behind. File writers do **not** create missing parent
