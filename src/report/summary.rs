@@ -38,13 +38,13 @@ pub struct CaseSummary {
     /// `max_t |ξ|`.
     #[serde(with = "finite_or_null")]
     pub xi_norm_max: f64,
-    /// Relative drift of the kinetic energy `⟨Ω, IΩ⟩` over the trajectory.
+    /// Kinetic-energy drift `max_t |T(t) − T(a)|`, `T = ½⟨Ω, IΩ⟩` (absolute), on the fine grid.
     #[serde(with = "finite_or_null")]
     pub energy_drift: f64,
     /// `|Ω(b) − Ω_b|`.
     #[serde(with = "finite_or_null")]
     pub omega_b_error: f64,
-    /// Largest residual (collocation / boundary conditions) reported by the solver.
+    /// ODE residual of the solution's interpolant, `max |y'(s) − T f(y(s))|` (absolute), on a fine grid.
     #[serde(with = "finite_or_null")]
     pub max_residual: f64,
     /// Number of mesh nodes of the final solution.
