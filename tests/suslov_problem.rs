@@ -1,0 +1,140 @@
+//! The Suslov problem layer: every invalid input gets a clear error naming the field, and the
+//! `paper` job writes complete, parseable outputs.
+
+use nalgebra::Vector3;
+use suslov::suslov::paper;
+use suslov::suslov::problem::{ProblemError, TerminalTime};
+
+fn message(p: &suslov::suslov::problem::SuslovProblem) -> String {
+    p.validate().expect_err("invalid").to_string()
+}
+
+#[test]
+fn the_paper_problem_is_valid() {
+    for case in paper::CASES {
+        paper::problem(case.eta).validate().expect("valid");
+    }
+}
+
+#[test]
+fn non_finite_numbers_name_their_field() {
+    let mut p = paper::problem(1.0);
+    p.weights.gamma = f64::NAN;
+    assert!(message(&p).contains("gamma = NaN is not a finite number"));
+    let mut p = paper::problem(1.0);
+    p.omega_b[1] = f64::INFINITY;
+    assert!(message(&p).contains("omega_b[1] = inf"));
+}
+
+#[test]
+fn singular_weights_are_rejected_with_the_reason() {
+    for (field, set) in [
+        (
+            "alpha",
+            Box::new(|p: &mut suslov::suslov::problem::SuslovProblem| p.weights.alpha = 0.0)
+                as Box<dyn Fn(&mut _)>,
+        ),
+        (
+            "beta",
+            Box::new(|p: &mut suslov::suslov::problem::SuslovProblem| p.weights.beta = -1.0),
+        ),
+    ] {
+        let mut p = paper::problem(1.0);
+        set(&mut p);
+        let m = message(&p);
+        assert!(m.starts_with(field), "{m}");
+        assert!(
+            m.contains("must be > 0") && m.contains("nonsingular"),
+            "{m}"
+        );
+    }
+    let mut p = paper::problem(1.0);
+    p.weights.eta = -0.5;
+    assert!(message(&p).contains("eta = -0.5: must be >= 0"));
+}
+
+#[test]
+fn omega_b_off_the_ellipsoid_says_by_how_much_and_suggests_the_projection() {
+    let mut p = paper::problem(1.0);
+    p.omega_b *= 1.01;
+    let e = p.validate().expect_err("off E");
+    match &e {
+        ProblemError::OffEllipsoid {
+            mismatch,
+            projection,
+            ..
+        } => {
+            assert!((mismatch - (1.01f64.powi(2) - 1.0)).abs() < 1e-12);
+            let proj = Vector3::from(*projection);
+            assert!((proj - p.omega_b / 1.01).norm() < 1e-12);
+        }
+        other => panic!("wrong error {other:?}"),
+    }
+    let m = e.to_string();
+    assert!(m.contains("omega_b") && m.contains("energy ellipsoid") && m.contains("projection"));
+}
+
+#[test]
+fn degenerate_boundary_data_is_rejected() {
+    let mut p = paper::problem(1.0);
+    p.omega_a = Vector3::zeros();
+    assert!(message(&p).contains("omega_a must be nonzero"));
+    let mut p = paper::problem(1.0);
+    p.terminal = TerminalTime::Fixed(-1.0);
+    assert!(message(&p).contains("must be greater than t0"));
+}
+
+#[test]
+fn solve_reports_an_invalid_problem_instead_of_panicking() {
+    let mut p = paper::problem(1.0);
+    p.weights.beta = 0.0;
+    let err = suslov::suslov::solve::solve(&p, &Default::default(), &mut |_| {})
+        .expect_err("beta = 0 is singular");
+    assert!(err.to_string().starts_with("invalid problem: beta"));
+}
+
+#[test]
+fn the_paper_job_writes_complete_outputs() {
+    let dir = std::env::temp_dir().join(format!("suslov-paper-job-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let mut wrote = Vec::new();
+    let summary = suslov::app::run_paper(&dir, &mut |e| {
+        if let suslov::app::AppEvent::Wrote(p) = e {
+            wrote.push(p.to_path_buf());
+        }
+    })
+    .expect("outputs written");
+    assert_eq!(summary.cases.len(), 2);
+    let text = std::fs::read_to_string(dir.join("summary.json")).expect("summary.json");
+    let parsed: suslov::report::Summary = serde_json::from_str(&text).expect("valid JSON");
+    assert_eq!(parsed.cases.len(), 2);
+    for (case, published) in parsed.cases.iter().zip([11.36, 9.84]) {
+        assert_eq!(case.status, "converged");
+        assert!((case.terminal_time - published).abs() <= 0.01);
+        assert!(case.reintegration_max_diff.expect("re-integrated") < 1e-7);
+        assert_eq!(case.stability.len(), 2);
+        let csv = std::fs::read_to_string(dir.join(&case.name).join("trajectory.csv"))
+            .expect("trajectory.csv");
+        let mut lines = csv.lines();
+        assert_eq!(
+            lines.next(),
+            Some(
+                "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3,kappa1,kappa2,kappa3,\
+                 omegad1,omegad2,omegad3"
+            )
+        );
+        assert_eq!(lines.count(), suslov::app::OUTPUT_POINTS);
+        for fig in ["omega_3d", "constraint", "xi_norm", "kappa", "omega"] {
+            let png = std::fs::read(dir.join(&case.name).join(format!("{fig}.png"))).expect(fig);
+            assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+        }
+    }
+    assert!(wrote.iter().all(|p| p.exists()));
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
+        .collect();
+    assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}
