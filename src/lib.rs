@@ -7,7 +7,61 @@
 //! Layers, from the bottom up:
 //! - [`model`]: the Suslov equations, costate equations, boundary conditions and all their
 //!   Jacobians, *generated* from first principles by the sympy program in `codegen/`.
-//! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov.
+//! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov
+//!   (4-stage Lobatto IIIA collocation, order 6, adaptive mesh, structured Newton).
+//! - [`continuation`]: natural-parameter and pseudo-arclength continuation of BVP families.
+//! - [`ivp`]: adaptive high-order IVP integration, for a-posteriori checks.
+//! - [`suslov`](mod@suslov): the problem layer (problem data and validation, desired paths with
+//!   exact derivatives, the analytic singular start, the staged homotopy of the paper's
+//!   section 5.2, diagnostics).
+//! - [`report`]: outputs (CSV, JSON, figures, atomic writes); [`app`]: the command-line jobs.
+//!
+//! # Example: the paper's η = 0.01 case
+//!
+//! ```
+//! use suslov::suslov::diagnostics::diagnose;
+//! use suslov::{paper, solve, SolveOptions};
+//!
+//! let problem = paper::problem(0.01); // free terminal time, published b = 9.84
+//! let solution = solve(&problem, &SolveOptions::default(), &mut |_event| {})?;
+//! assert!((solution.terminal_time() - 9.84).abs() < 0.01);
+//! let checks = diagnose(&solution);
+//! assert!(checks.max_abs_constraint < 1e-9); // ⟨Ω, ξ⟩ = 0 on a fine grid
+//! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5
+//! assert_eq!(y.len(), 12);
+//! # Ok::<(), suslov::suslov::solve::SolveError>(())
+//! ```
+//!
+//! # Example: your own problem
+//!
+//! A fixed terminal time and a desired path that runs along the energy ellipsoid from `Ω_a`
+//! to `Ω_b` (the radial projection of the straight segment):
+//!
+//! ```
+//! use std::sync::Arc;
+//! use nalgebra::Vector3;
+//! use suslov::suslov::{EnergyEllipsoid, Inertia, ProjectedSegment};
+//! use suslov::{solve, CostWeights, SolveOptions, SuslovProblem, TerminalTime};
+//!
+//! let inertia = Inertia::new([1.0, 1.5, 2.5])?;
+//! let omega_a = Vector3::new(3.0, 1.0, 0.0);
+//! let e = EnergyEllipsoid::through(inertia, &omega_a)?;
+//! let omega_b = e.project(&Vector3::new(1.0, 2.0, -1.0))?; // on Ω_a's ellipsoid
+//! let desired = ProjectedSegment::new(inertia, omega_a, omega_b, 0.0, 6.0)?;
+//! let problem = SuslovProblem {
+//!     inertia,
+//!     weights: CostWeights { alpha: 1.0, beta: 0.1, gamma: 1.0, eta: 0.1, delta: 0.0 },
+//!     t0: 0.0,
+//!     omega_a,
+//!     omega_b,
+//!     terminal: TerminalTime::Fixed(6.0),
+//!     desired: Arc::new(desired),
+//! };
+//! let solution = solve(&problem, &SolveOptions::default(), &mut |_event| {})?;
+//! let y_end = solution.state(6.0);
+//! assert!((Vector3::new(y_end[0], y_end[1], y_end[2]) - omega_b).norm() < 1e-8);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 pub mod app;
 pub mod bvp;
@@ -16,3 +70,7 @@ pub mod ivp;
 pub mod model;
 pub mod report;
 pub mod suslov;
+
+pub use suslov::paper;
+pub use suslov::problem::{CostWeights, ProblemError, SuslovProblem, TerminalTime};
+pub use suslov::solve::{solve, SolveError, SolveOptions, SuslovSolution};
