@@ -73,7 +73,11 @@ impl Reporter {
                 }
             }
             AppEvent::Solve(Event::StageStarted { name, from, to }) => {
-                let text = format!("  stage {name}: {from:.6} -> {to:.6}");
+                let text = if from == to {
+                    format!("  stage {name}")
+                } else {
+                    format!("  stage {name}: {from:.6} -> {to:.6}")
+                };
                 if let Some(bar) = &self.bar {
                     bar.set_message(text.trim().to_string());
                 }
