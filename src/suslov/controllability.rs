@@ -417,7 +417,7 @@ pub fn report_table(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::PaperSpiral;
+    use crate::suslov::desired::{DesiredPath, PaperSpiral};
     use crate::suslov::singular::singular_control_at;
 
     fn rng(seed: u64) -> impl FnMut() -> f64 {
@@ -478,6 +478,7 @@ mod tests {
             worst_gap = worst_gap.max(r.gap);
             min_s4 = min_s4.min(r.smallest_significant);
         }
+        eprintln!("on M: worst sigma_5/sigma_4 = {worst_gap:e}, min sigma_4 = {min_s4:e}");
         // The structurally zero singular values are round-off: many decades below sigma_4.
         assert!(worst_gap < 1e-12, "gap {worst_gap:e}");
         assert!(min_s4 > 1e-4, "sigma_4 {min_s4:e}");
@@ -488,14 +489,18 @@ mod tests {
         // Off M only <Omega, xi> is invariant (derivation, codegen/control.py): rank 5 at
         // generic states of R^6; sigma_5 ~ |<Omega, xi>|.
         let mut next = rng(2);
+        let mut min_s5 = f64::INFINITY;
         for _ in 0..500 {
             let (inertia, om, _) = random_admissible(&mut next);
             let xi = Vector3::new(next() - 0.5, next() - 0.5, next() + 0.2).normalize();
             let r = rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap();
             if r.relative_constraint.abs() > 1e-3 {
                 assert_eq!(r.rank, 5, "{r:?}");
+                min_s5 = min_s5.min(r.smallest_significant / r.relative_constraint.abs());
+                assert!(r.singular_values[5] < 1e-12 * r.singular_values[0]);
             }
         }
+        eprintln!("off M: min sigma_5 / |<Om,xi>|_rel = {min_s5:e}");
         let r = rank_report(
             &Inertia::paper(),
             &Vector3::zeros(),
@@ -511,12 +516,14 @@ mod tests {
     fn spherical_body_is_driftless_and_others_are_not() {
         let mut next = rng(3);
         let mut min_drift = f64::INFINITY;
+        let mut max_sphere: f64 = 0.0;
         for _ in 0..1000 {
             let (inertia, om, xi) = random_admissible(&mut next);
             let c = 0.5 + 2.5 * next();
             let sphere = Inertia::new([c, c, c]).unwrap();
             let f = control_fields(&sphere, &om, &xi).unwrap().drift;
             assert!(f.amax() <= 1e-14, "|f| = {:e}", f.amax());
+            max_sphere = max_sphere.max(f.amax());
             // also off M: f = 0 identically for I = c Id
             let f_off = control_fields(&sphere, &om, &(xi + om * 0.3))
                 .unwrap()
@@ -539,6 +546,7 @@ mod tests {
         .unwrap()
         .drift;
         assert_eq!(f.amax(), 0.0);
+        eprintln!("sphere: max |f| = {max_sphere:e}; non-spherical (spread > 0.1): min |f|/|Om|^2 = {min_drift:e}");
         assert!(min_drift > 0.0);
     }
 
@@ -572,6 +580,7 @@ mod tests {
                 worst = worst.max(err);
             }
         }
+        eprintln!("brackets vs central differences: worst relative error {worst:e}");
         assert!(worst < 1e-7, "worst relative FD error {worst:e}");
     }
 
@@ -588,6 +597,7 @@ mod tests {
             let p = paper_v(&inertia, &om, &xi);
             worst = worst.max((v - p).amax() / p.amax());
         }
+        eprintln!("V vs eqs. Veqn/Aeqn: worst relative difference {worst:e}");
         assert!(worst < 1e-13, "worst relative difference {worst:e}");
     }
 
@@ -621,6 +631,11 @@ mod tests {
         let times: Vec<f64> = (0..=400).map(|k| 10.0 * k as f64 / 400.0).collect();
         let tr = rank_along_fn(&inertia, &traj, &times, RANK_RTOL).unwrap();
         assert_eq!((tr.min_rank, tr.max_rank, tr.points), (4, 4, 401));
+        eprintln!(
+            "paper spiral: rank {}..{}, min sigma_4 {:e} at t = {}, max gap {:e}, max |<Om,xi>| {:e}",
+            tr.min_rank, tr.max_rank, tr.min_significant, tr.t_min_significant, tr.max_gap,
+            tr.max_abs_constraint
+        );
         assert!(tr.max_abs_constraint < 1e-12);
         assert!(tr.min_significant > 1e-3, "{}", tr.min_significant);
         assert!(tr.max_gap < 1e-12);
