@@ -36,11 +36,13 @@
 //! # Numerical rank
 //!
 //! `rank = #{k : σₖ > rtol · σ₁}` with the singular values `σ₁ ≥ … ≥ σ₆` of `V` (nalgebra SVD)
-//! and by default `rtol = `[`RANK_RTOL`]` = 1e-9`. The identity block makes `σ₁ ≥ 1`; round-off
-//! in the emitted fields puts the structurally zero singular values at ~1e-16·σ₁, and the 4th
-//! singular value at states of the paper's scale (`|Ω| ~ 5`, `|ξ| = 1`, `I = diag(1,2,3)`) is
-//! O(0.1–1), so the threshold sits in a gap of many decades ([`RankReport::gap`] reports
-//! `σ_{r+1}/σ_r`). Scaling matters: under `ξ → sξ` the `Ω`-rows of the `gᵢ` scale as `1/s`
+//! and by default `rtol = `[`RANK_RTOL`]` = 1e-9`. The identity block makes `σ₁ ≥ 1`, and `1` is
+//! a singular value of multiplicity ≥ 2 (left singular vectors `[0; y]`, `y ⊥ Ω`, because the
+//! `Ω`-block of the `gᵢ` is `−ηΩᵀ/den`). Round-off in the emitted fields puts the structurally
+//! zero singular values at ~1e-16·σ₁, while `σ₄` is ≥ 0.17 at 2000 random states of `M` with
+//! `|Ω| ∈ [0.2, 3.5]`, `|ξ| = 1` (and exactly 1 at the paper's scale `|Ω| ~ 5`,
+//! `I = diag(1,2,3)`), so the threshold sits in a gap of ≥ 14 decades ([`RankReport::gap`]
+//! reports `σ_{r+1}/σ_r`, measured ≤ 1.6e-15). Scaling matters: under `ξ → sξ` the `Ω`-rows of the `gᵢ` scale as `1/s`
 //! and of the brackets as `1/s²`, so evaluate at `|ξ| ~ 1`. Along a numerically computed
 //! trajectory, the constraint drift `⟨Ω,ξ⟩ ≈ ε` yields a 5th singular value `∝ ε`; it is
 //! counted only if it exceeds `rtol · σ₁` (see [`RankReport::relative_constraint`]).
@@ -50,6 +52,9 @@ use nalgebra::{Matrix6, Vector3, Vector6};
 use super::ellipsoid::Inertia;
 use super::SuslovError;
 use crate::model::generated;
+
+/// A state `x = [Ω, ξ]`, as the pair `(Ω, ξ)`.
+pub type State = (Vector3<f64>, Vector3<f64>);
 
 /// Default relative threshold of the numerical rank: `σₖ` counts if `σₖ > RANK_RTOL · σ₁`.
 pub const RANK_RTOL: f64 = 1e-9;
@@ -245,7 +250,7 @@ pub fn rank_along(
 /// solution's interpolant, or a path with its singular control), sampled at `times`.
 pub fn rank_along_fn(
     inertia: &Inertia,
-    trajectory: &dyn Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError>,
+    trajectory: &dyn Fn(f64) -> Result<State, SuslovError>,
     times: &[f64],
     rtol: f64,
 ) -> Result<TrajectoryRank, SuslovError> {
@@ -273,7 +278,7 @@ pub fn sample_states_on_m(
     omega_a: &Vector3<f64>,
     n: usize,
     seed: u64,
-) -> Result<Vec<(Vector3<f64>, Vector3<f64>)>, SuslovError> {
+) -> Result<Vec<State>, SuslovError> {
     let mut s = seed;
     let mut next = move || {
         s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
@@ -324,11 +329,7 @@ pub fn parse_vec3(s: &str) -> Result<Vector3<f64>, SuslovError> {
 
 /// The `suslov controllability` table: one row per state `(Ω, ξ)` with `⟨Ω, ξ⟩`, the rank,
 /// the singular values of `V` and `|f|`, then a summary and the theorem it checks.
-pub fn report_table(
-    inertia: &Inertia,
-    states: &[(Vector3<f64>, Vector3<f64>)],
-    rtol: f64,
-) -> Result<String, SuslovError> {
+pub fn report_table(inertia: &Inertia, states: &[State], rtol: f64) -> Result<String, SuslovError> {
     use std::fmt::Write;
     let d = inertia.diag();
     let spherical = d[0] == d[1] && d[1] == d[2];
