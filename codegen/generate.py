@@ -53,6 +53,7 @@ if sp.__version__ != pinned_sympy():
     sys.exit(3)
 
 sys.path.insert(0, HERE)
+import control as CTRL  # noqa: E402
 import derive as D  # noqa: E402
 import model as M  # noqa: E402
 from emit_rust import Arg, Function, Out, Scalar, emit_function, emit_vector_checks, \
@@ -230,6 +231,27 @@ def build_functions(opt):
         "|xi~| > 0 (Property 3).",
         prog, [Arg("omega_p", sp_syms, "[Omega_p, Omega_p', Omega_p'']", u(-2.0, 2.0)), p_arg],
         [Out("out", sp.Matrix(list(xi_p) + list(xi_p_dot)), "array", "[xi_p, xi_p']")]))
+
+    # ---- controllability of the pure equations (section 4.3, codegen/control.py) ---------
+    aff = CTRL.AffineSystem(opt.suslov)
+    cx_arg = Arg("x", CTRL.X, "the state [Omega, xi] (xi != 0)", state_sample)
+    prog = Program(CTRL.X, M.PARAMS)
+    fns.append(Function(
+        "control_fields",
+        "Suslov's pure equations as a control-affine system x' = f(x) + sum_i g_i(x) u_i with\n"
+        "x = [Omega, xi], u = xi' (paper eqs. state_eqns, state_f, state_gi): g_i = dx'/du_i,\n"
+        "f = x' at u = 0. f = 0 for a spherical body I = c Id.",
+        prog, [cx_arg, p_arg],
+        [Out("out", aff.fields_matrix(), "matrix",
+             "rows f, g1, g2, g3; `out[k][j]` = component j of field k")]))
+    prog = Program(CTRL.X, M.PARAMS)
+    fns.append(Function(
+        "lie_brackets",
+        "The Lie brackets [g_i, g_j] = (Dg_j) g_i - (Dg_i) g_j of the control fields of\n"
+        "`control_fields` (the last three columns of the paper's matrix V, eq. Veqn).",
+        prog, [cx_arg, p_arg],
+        [Out("out", aff.brackets_matrix(), "matrix",
+             "rows [g1, g2], [g1, g3], [g2, g3]; `out[k][j]` = component j")]))
     return fns
 
 

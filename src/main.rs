@@ -35,6 +35,46 @@ enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
+    /// Accessibility rank test of Suslov's pure equations (paper section 4.3): rank of
+    /// V = [g1, g2, g3, [g_i, g_j]], its singular values and the drift, at one state
+    /// (--omega and --xi) or at random states of M with the energy of --omega-a.
+    Controllability(ControllabilityArgs),
+}
+
+/// Arguments of `suslov controllability`.
+#[derive(clap::Args)]
+struct ControllabilityArgs {
+    /// Principal moments of inertia, e.g. `1,2,3` (the paper's).
+    #[arg(long, default_value = "1,2,3", allow_hyphen_values = true)]
+    inertia: String,
+    /// Evaluate at this Omega (needs --xi), e.g. `5,0,0`.
+    #[arg(long, allow_hyphen_values = true, requires = "xi")]
+    omega: Option<String>,
+    /// Evaluate at this xi (needs --omega), e.g. `0,1,0`.
+    #[arg(long, allow_hyphen_values = true, requires = "omega")]
+    xi: Option<String>,
+    /// Without --omega/--xi: sample states of M on the energy ellipsoid through this Omega.
+    #[arg(long, default_value = "5,0,0", allow_hyphen_values = true)]
+    omega_a: String,
+    /// Number of random states of M.
+    #[arg(long, default_value_t = 8)]
+    samples: usize,
+    /// Seed of the random states.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1.
+    #[arg(long, default_value_t = suslov::suslov::controllability::RANK_RTOL)]
+    rtol: f64,
+}
+
+fn run_controllability(a: &ControllabilityArgs) -> Result<String, suslov::suslov::SuslovError> {
+    use suslov::suslov::controllability as c;
+    let inertia = suslov::suslov::Inertia::new(c::parse_vec3(&a.inertia)?.into())?;
+    let states = match (&a.omega, &a.xi) {
+        (Some(om), Some(xi)) => vec![(c::parse_vec3(om)?, c::parse_vec3(xi)?)],
+        _ => c::sample_states_on_m(&inertia, &c::parse_vec3(&a.omega_a)?, a.samples, a.seed)?,
+    };
+    c::report_table(&inertia, &states, a.rtol)
 }
 
 /// Progress on stderr: a spinner per case on a terminal, log lines otherwise.
@@ -139,6 +179,16 @@ fn main() -> ExitCode {
         terminal: std::io::stderr().is_terminal(),
     };
     match cli.command {
+        Command::Controllability(a) => match run_controllability(&a) {
+            Ok(table) => {
+                print!("{table}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::FAILURE
+            }
+        },
         Command::Paper { out } => match app::run_paper(&out, &mut |e| reporter.event(e)) {
             Ok(summary) => {
                 let failed = summary.cases.iter().any(|c| c.status != "converged");

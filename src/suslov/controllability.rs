@@ -1,0 +1,667 @@
+//! Controllability and accessibility of Suslov's pure equations (paper section 4.3,
+//! `sec_controllability`).
+//!
+//! With the state `x = [Ω, ξ] ∈ ℝ⁶` and the control `u = ξ̇`, Suslov's pure equations are the
+//! control-affine system `ẋ = f(x) + Σᵢ gᵢ(x) uᵢ` (eq. `state_eqns`). The fields are *derived*
+//! in `codegen/control.py` from the generator's own Suslov equations (`gᵢ = ∂ẋ/∂uᵢ`,
+//! `f = ẋ|_{u=0}`, affinity checked symbolically) and the Lie brackets
+//! `[gᵢ, gⱼ] = (Dgⱼ) gᵢ − (Dgᵢ) gⱼ` by sympy Jacobians; they are emitted as
+//! [`generated::control_fields`] and [`generated::lie_brackets`]. Writing `η = I⁻¹ξ` and
+//! `den = ⟨ξ, η⟩`:
+//!
+//! - `f = [I⁻¹((IΩ) × Ω) − η ⟨(IΩ) × Ω, η⟩/den ; 0]` (eq. `state_f`),
+//! - `gᵢ = [−Ωᵢ η/den ; eᵢ]` (eq. `state_gi`),
+//! - `[gᵢ, gⱼ] = [(Ωⱼηᵢ − Ωᵢηⱼ) η/den² + I⁻¹(Ωᵢeⱼ − Ωⱼeᵢ)/den ; 0]` (the paper's bracket).
+//!
+//! All three agree exactly with the paper's printed formulas, and `V = [g₁, g₂, g₃, [g₁,g₂],
+//! [g₁,g₃], [g₂,g₃]]` with its eqs. `Veqn`/`Aeqn` (symbolic test
+//! `codegen/tests/test_control.py`; numerically in this module's tests).
+//!
+//! # Ranks (exact rational arithmetic in the Python test, SVD here)
+//!
+//! - **On `M = {½⟨IΩ,Ω⟩ = e_S > 0, ⟨Ω,ξ⟩ = 0, ξ ≠ 0}`: rank V = 4 = dim M** (the paper's
+//!   theorem). Every field is tangent to `M`; `V = [[B, I⁻¹A/den], [Id, 0]]` has rank
+//!   `3 + rank A`, and the columns of `A` lie in `Ω^⊥ ∩ η^⊥`, a line (Ω ∦ η on `M` since
+//!   `⟨η, ξ⟩ > 0 = ⟨Ω, ξ⟩`), with `A ≠ 0`. Adding `f` and `[f, gᵢ]` does not raise it.
+//! - **Off `M` (generic `x ∈ ℝ⁶` with `⟨Ω,ξ⟩ ≠ 0`): rank V = 5.** The fields preserve
+//!   `⟨Ω,ξ⟩` identically (they come from `d/dt⟨Ω,ξ⟩ = 0`) but not the energy, whose rate along
+//!   `gᵢ` is `−Ωᵢ⟨Ω,ξ⟩/den`. So the accessibility distribution is the 5-dimensional tangent
+//!   space of the level set of `⟨Ω,ξ⟩`. The 5th singular value is proportional to `|⟨Ω,ξ⟩|`.
+//! - At rest (`Ω = 0`, `e_S = 0`) rank V = 3: `gᵢ = [0; eᵢ]` and the brackets vanish. (There
+//!   the paper's `Φ` is not a submersion either: its first row `(IΩ, 0)` vanishes.)
+//! - `I = c·Id` makes `f ≡ 0` on all of `ℝ⁶` (driftless, so controllable on `M`); otherwise
+//!   `f ≠ 0` at generic points of `M` (accessible). `f` vanishes e.g. where `Ω` is a principal
+//!   axis (then `(IΩ) × Ω = 0`).
+//!
+//! # Numerical rank
+//!
+//! `rank = #{k : σₖ > rtol · σ₁}` with the singular values `σ₁ ≥ … ≥ σ₆` of `V` (nalgebra SVD)
+//! and by default `rtol = `[`RANK_RTOL`]` = 1e-9`. The identity block makes `σ₁ ≥ 1`, and `1` is
+//! a singular value of multiplicity ≥ 2 (left singular vectors `[0; y]`, `y ⊥ Ω`, because the
+//! `Ω`-block of the `gᵢ` is `−ηΩᵀ/den`). Round-off in the emitted fields puts the structurally
+//! zero singular values at ~1e-16·σ₁, while `σ₄` is ≥ 0.17 at 2000 random states of `M` with
+//! `|Ω| ∈ [0.2, 3.5]`, `|ξ| = 1` (and exactly 1 at the paper's scale `|Ω| ~ 5`,
+//! `I = diag(1,2,3)`), so the threshold sits in a gap of ≥ 14 decades ([`RankReport::gap`]
+//! reports `σ_{r+1}/σ_r`, measured ≤ 1.6e-15). Scaling matters: under `ξ → sξ` the `Ω`-rows of the `gᵢ` scale as `1/s`
+//! and of the brackets as `1/s²`, so evaluate at `|ξ| ~ 1`. Along a numerically computed
+//! trajectory, the constraint drift `⟨Ω,ξ⟩ ≈ ε` yields a 5th singular value `∝ ε`; it is
+//! counted only if it exceeds `rtol · σ₁` (see [`RankReport::relative_constraint`]).
+
+use nalgebra::{Matrix6, Vector3, Vector6};
+
+use super::ellipsoid::Inertia;
+use super::SuslovError;
+use crate::model::generated;
+
+/// A state `x = [Ω, ξ]`, as the pair `(Ω, ξ)`.
+pub type State = (Vector3<f64>, Vector3<f64>);
+
+/// Default relative threshold of the numerical rank: `σₖ` counts if `σₖ > RANK_RTOL · σ₁`.
+pub const RANK_RTOL: f64 = 1e-9;
+
+/// The drift, the control fields and their brackets at one state `x = [Ω, ξ]`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlFields {
+    /// The drift `f(x)`.
+    pub drift: Vector6<f64>,
+    /// The control fields `g₁, g₂, g₃`.
+    pub g: [Vector6<f64>; 3],
+    /// `[g₁, g₂]`, `[g₁, g₃]`, `[g₂, g₃]`.
+    pub brackets: [Vector6<f64>; 3],
+}
+
+impl ControlFields {
+    /// The paper's `V = [g₁, g₂, g₃, [g₁,g₂], [g₁,g₃], [g₂,g₃]]` (eq. `Veqn`), as columns.
+    pub fn accessibility_matrix(&self) -> Matrix6<f64> {
+        let cols = [
+            self.g[0],
+            self.g[1],
+            self.g[2],
+            self.brackets[0],
+            self.brackets[1],
+            self.brackets[2],
+        ];
+        Matrix6::from_columns(&cols)
+    }
+}
+
+/// The generated functions' constant vector `p` (only `I₁, I₂, I₃` enter these fields).
+fn params(inertia: &Inertia) -> [f64; 8] {
+    let d = inertia.diag();
+    [d[0], d[1], d[2], 0.0, 0.0, 0.0, 0.0, 0.0]
+}
+
+fn state(omega: &Vector3<f64>, xi: &Vector3<f64>) -> Result<[f64; 6], SuslovError> {
+    let x = [omega[0], omega[1], omega[2], xi[0], xi[1], xi[2]];
+    if x.iter().any(|v| !v.is_finite()) || xi.norm() == 0.0 {
+        return Err(SuslovError::InvalidInput {
+            what: format!("state Omega = {omega:?}, xi = {xi:?}: need finite values and xi != 0"),
+        });
+    }
+    Ok(x)
+}
+
+/// `f`, `gᵢ` and `[gᵢ, gⱼ]` at `x = [Ω, ξ]`, from the generated code. Errors if `ξ = 0` or a
+/// value is not finite.
+pub fn control_fields(
+    inertia: &Inertia,
+    omega: &Vector3<f64>,
+    xi: &Vector3<f64>,
+) -> Result<ControlFields, SuslovError> {
+    let x = state(omega, xi)?;
+    let p = params(inertia);
+    let mut fg = [[0.0; 6]; 4];
+    let mut br = [[0.0; 6]; 3];
+    generated::control_fields(&x, &p, &mut fg);
+    generated::lie_brackets(&x, &p, &mut br);
+    let v = |a: &[f64; 6]| Vector6::from_column_slice(a);
+    Ok(ControlFields {
+        drift: v(&fg[0]),
+        g: [v(&fg[1]), v(&fg[2]), v(&fg[3])],
+        brackets: [v(&br[0]), v(&br[1]), v(&br[2])],
+    })
+}
+
+/// The accessibility rank test at one state.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct RankReport {
+    /// Numerical rank of `V`: `#{k : σₖ > threshold}`.
+    pub rank: usize,
+    /// Singular values of `V`, descending.
+    pub singular_values: [f64; 6],
+    /// The absolute threshold `rtol · σ₁` used.
+    pub threshold: f64,
+    /// `σ_rank`, the smallest singular value counted (0 if the rank is 0).
+    pub smallest_significant: f64,
+    /// `σ_{rank+1}/σ_rank`: how cleanly the rank is separated (0 if the rank is 6).
+    pub gap: f64,
+    /// `|f(x)|`, the Euclidean norm of the drift.
+    pub drift_norm: f64,
+    /// `⟨Ω, ξ⟩` (0 on `M`).
+    pub constraint: f64,
+    /// `⟨Ω, ξ⟩ / (|Ω| |ξ|)` (0 on `M`; 0 if `Ω = 0`).
+    pub relative_constraint: f64,
+}
+
+/// Singular values of `V`, sorted descending.
+pub fn singular_values(v: &Matrix6<f64>) -> [f64; 6] {
+    let mut s: [f64; 6] = v.singular_values().as_slice().try_into().expect("6 values");
+    s.sort_by(|a, b| b.total_cmp(a));
+    s
+}
+
+/// Numerical rank of descending singular values with the relative threshold `rtol`
+/// (`σₖ > rtol · σ₁`); returns `(rank, threshold)`.
+pub fn numerical_rank(sv: &[f64; 6], rtol: f64) -> (usize, f64) {
+    let threshold = rtol * sv[0];
+    (sv.iter().filter(|s| **s > threshold).count(), threshold)
+}
+
+/// Evaluates `V` at `x = [Ω, ξ]`, its singular values and numerical rank (threshold
+/// `rtol · σ₁`, see the module docs; use [`RANK_RTOL`] by default).
+pub fn rank_report(
+    inertia: &Inertia,
+    omega: &Vector3<f64>,
+    xi: &Vector3<f64>,
+    rtol: f64,
+) -> Result<RankReport, SuslovError> {
+    let fields = control_fields(inertia, omega, xi)?;
+    let sv = singular_values(&fields.accessibility_matrix());
+    let (rank, threshold) = numerical_rank(&sv, rtol);
+    let constraint = omega.dot(xi);
+    let scale = omega.norm() * xi.norm();
+    Ok(RankReport {
+        rank,
+        singular_values: sv,
+        threshold,
+        smallest_significant: if rank == 0 { 0.0 } else { sv[rank - 1] },
+        gap: if rank == 0 || rank == 6 {
+            0.0
+        } else {
+            sv[rank] / sv[rank - 1]
+        },
+        drift_norm: fields.drift.norm(),
+        constraint,
+        relative_constraint: if scale > 0.0 { constraint / scale } else { 0.0 },
+    })
+}
+
+/// The rank test along a trajectory.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct TrajectoryRank {
+    /// Number of states evaluated.
+    pub points: usize,
+    /// Smallest numerical rank.
+    pub min_rank: usize,
+    /// Largest numerical rank.
+    pub max_rank: usize,
+    /// Smallest `σ_rank` over the points whose rank is `min_rank`: the margin of the rank.
+    pub min_significant: f64,
+    /// Time of `min_significant`.
+    pub t_min_significant: f64,
+    /// Largest `σ_{rank+1}/σ_rank` (how close the threshold came to being ambiguous).
+    pub max_gap: f64,
+    /// Largest `|⟨Ω, ξ⟩|` (0 on `M`).
+    pub max_abs_constraint: f64,
+    /// Largest `|f|`.
+    pub max_drift_norm: f64,
+    /// The per-point reports, with their times.
+    pub reports: Vec<(f64, RankReport)>,
+}
+
+/// [`rank_report`] at a list of states `(t, Ω, ξ)`. Errors on an empty list or a bad state.
+pub fn rank_along(
+    inertia: &Inertia,
+    states: &[(f64, Vector3<f64>, Vector3<f64>)],
+    rtol: f64,
+) -> Result<TrajectoryRank, SuslovError> {
+    if states.is_empty() {
+        return Err(SuslovError::InvalidInput {
+            what: "rank_along needs at least one state".into(),
+        });
+    }
+    let reports = states
+        .iter()
+        .map(|(t, om, xi)| rank_report(inertia, om, xi, rtol).map(|r| (*t, r)))
+        .collect::<Result<Vec<_>, _>>()?;
+    let min_rank = reports.iter().map(|(_, r)| r.rank).min().unwrap_or(0);
+    let max_rank = reports.iter().map(|(_, r)| r.rank).max().unwrap_or(0);
+    let (t_min_significant, min_significant) = reports
+        .iter()
+        .filter(|(_, r)| r.rank == min_rank)
+        .map(|(t, r)| (*t, r.smallest_significant))
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .unwrap_or((f64::NAN, f64::NAN));
+    let fold = |g: fn(&RankReport) -> f64| reports.iter().map(|(_, r)| g(r)).fold(0.0, f64::max);
+    Ok(TrajectoryRank {
+        points: reports.len(),
+        min_rank,
+        max_rank,
+        min_significant,
+        t_min_significant,
+        max_gap: fold(|r| r.gap),
+        max_abs_constraint: fold(|r| r.constraint.abs()),
+        max_drift_norm: fold(|r| r.drift_norm),
+        reports,
+    })
+}
+
+/// [`rank_along`] for a trajectory given as a closure `t ↦ (Ω(t), ξ(t))` (e.g. a BVP
+/// solution's interpolant, or a path with its singular control), sampled at `times`.
+pub fn rank_along_fn(
+    inertia: &Inertia,
+    trajectory: &dyn Fn(f64) -> Result<State, SuslovError>,
+    times: &[f64],
+    rtol: f64,
+) -> Result<TrajectoryRank, SuslovError> {
+    let states = times
+        .iter()
+        .map(|&t| trajectory(t).map(|(om, xi)| (t, om, xi)))
+        .collect::<Result<Vec<_>, _>>()?;
+    rank_along(inertia, &states, rtol)
+}
+
+/// A unit `ξ ⊥ Ω` in the direction `Ω × r` (an admissible constraint for `Ω`); `None` if
+/// `Ω × r` is ~0.
+pub fn admissible_xi(omega: &Vector3<f64>, r: &Vector3<f64>) -> Option<Vector3<f64>> {
+    let c = omega.cross(r);
+    let n = c.norm();
+    (n > 1e-12 * omega.norm() * r.norm() && n.is_finite()).then(|| c / n)
+}
+
+/// `n` deterministic pseudo-random states of `M` for the energy of `omega_a`: `Ω` uniform in
+/// direction and scaled onto the ellipsoid `½⟨IΩ,Ω⟩ = ½⟨IΩ_a,Ω_a⟩`, `ξ` a unit vector `⊥ Ω`
+/// in a random direction. (SplitMix64 generator seeded by `seed`.) Errors unless the energy
+/// of `omega_a` is finite and positive.
+pub fn sample_states_on_m(
+    inertia: &Inertia,
+    omega_a: &Vector3<f64>,
+    n: usize,
+    seed: u64,
+) -> Result<Vec<State>, SuslovError> {
+    let mut s = seed;
+    let mut next = move || {
+        s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = s;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+        2.0 * ((z >> 11) as f64 / (1u64 << 53) as f64) - 1.0
+    };
+    let energy2 = inertia.apply(omega_a).dot(omega_a);
+    if !(energy2.is_finite() && energy2 > 0.0) {
+        return Err(SuslovError::InvalidInput {
+            what: format!("Omega_a = {omega_a:?} must have finite positive energy"),
+        });
+    }
+    let mut out = Vec::with_capacity(n);
+    while out.len() < n {
+        let d = Vector3::new(next(), next(), next());
+        let r = Vector3::new(next(), next(), next());
+        let q = inertia.apply(&d).dot(&d);
+        if d.norm() < 1e-3 || q <= 0.0 {
+            continue;
+        }
+        let om = d * (energy2 / q).sqrt();
+        if let Some(xi) = admissible_xi(&om, &r) {
+            out.push((om, xi));
+        }
+    }
+    Ok(out)
+}
+
+/// Parses `"a,b,c"` into a vector (for the command line).
+pub fn parse_vec3(s: &str) -> Result<Vector3<f64>, SuslovError> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| p.trim().parse::<f64>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| SuslovError::InvalidInput {
+            what: format!("{s:?} is not three comma-separated numbers: {e}"),
+        })?;
+    match v[..] {
+        [a, b, c] => Ok(Vector3::new(a, b, c)),
+        _ => Err(SuslovError::InvalidInput {
+            what: format!("{s:?} has {} entries, expected 3", v.len()),
+        }),
+    }
+}
+
+/// The `suslov controllability` table: one row per state `(Ω, ξ)` with `⟨Ω, ξ⟩`, the rank,
+/// the singular values of `V` and `|f|`, then a summary and the theorem it checks.
+pub fn report_table(inertia: &Inertia, states: &[State], rtol: f64) -> Result<String, SuslovError> {
+    use std::fmt::Write;
+    let d = inertia.diag();
+    let spherical = d[0] == d[1] && d[1] == d[2];
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        "Accessibility of Suslov's pure equations, x = [Omega, xi], u = xi' (paper section 4.3)\n\
+         I = diag({}, {}, {}); V = [g1, g2, g3, [g1,g2], [g1,g3], [g2,g3]]; \
+         rank = #{{sigma_k > {rtol:e} sigma_1}}\n",
+        d[0], d[1], d[2]
+    );
+    let _ = writeln!(
+        s,
+        "{:>3}  {:>26}  {:>26}  {:>9}  {:>4}  {:>54}  {:>9}",
+        "#", "Omega", "xi", "<Om,xi>", "rank", "singular values of V", "|f|"
+    );
+    let mut ranks = Vec::with_capacity(states.len());
+    let mut min_drift = f64::INFINITY;
+    for (k, (om, xi)) in states.iter().enumerate() {
+        let r = rank_report(inertia, om, xi, rtol)?;
+        let v3 = |v: &Vector3<f64>| format!("[{:7.3}, {:7.3}, {:7.3}]", v[0], v[1], v[2]);
+        let sv = r
+            .singular_values
+            .iter()
+            .map(|v| format!("{v:8.2e}"))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let _ = writeln!(
+            s,
+            "{:>3}  {:>26}  {:>26}  {:>9.1e}  {:>4}  {:>54}  {:>9.3e}",
+            k,
+            v3(om),
+            v3(xi),
+            r.constraint,
+            r.rank,
+            sv,
+            r.drift_norm
+        );
+        ranks.push((r.rank, r.relative_constraint.abs() < 1e-12));
+        min_drift = min_drift.min(r.drift_norm);
+    }
+    let on_m: Vec<usize> = ranks.iter().filter(|r| r.1).map(|r| r.0).collect();
+    let off_m: Vec<usize> = ranks.iter().filter(|r| !r.1).map(|r| r.0).collect();
+    let span = |v: &[usize]| match (v.iter().min(), v.iter().max()) {
+        (Some(a), Some(b)) if a == b => format!("{a}"),
+        (Some(a), Some(b)) => format!("{a}..{b}"),
+        _ => "-".into(),
+    };
+    let _ = writeln!(
+        s,
+        "\nrank on M (|<Om,xi>| < 1e-12 |Om||xi|): {} ({} states); off M: {} ({} states)",
+        span(&on_m),
+        on_m.len(),
+        span(&off_m),
+        off_m.len()
+    );
+    let _ = writeln!(
+        s,
+        "Theorem (paper section 4.3): rank V = 4 = dim M at every point of \
+         M = {{1/2 <I Om, Om> = e_S > 0, <Om, xi> = 0, xi != 0}};"
+    );
+    let _ = writeln!(
+        s,
+        "  off M (generic x in R^6) the rank is 5 (only <Om, xi> is invariant); at Omega = 0 it is 3."
+    );
+    if spherical {
+        let _ = writeln!(
+            s,
+            "I = c Id: the drift f vanishes (max |f| here {:.1e}), the system is driftless and controllable on M.",
+            states
+                .iter()
+                .map(|(o, x)| control_fields(inertia, o, x).map(|f| f.drift.norm()))
+                .collect::<Result<Vec<_>, _>>()?
+                .into_iter()
+                .fold(0.0, f64::max)
+        );
+    } else {
+        let _ = writeln!(
+            s,
+            "I != c Id: the system has drift (f != 0 at generic points of M; min |f| here {min_drift:.3e}) and is accessible."
+        );
+    }
+    Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::suslov::desired::{DesiredPath, PaperSpiral};
+    use crate::suslov::singular::singular_control_at;
+
+    fn rng(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s.wrapping_add(0x9E37_79B9_7F4A_7C15);
+            let mut z = s;
+            z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+            z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+            z ^= z >> 31;
+            (z >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// Random inertia in [0.5, 3]³, `Ω` in [-2, 2]³, a unit `ξ ⊥ Ω`.
+    fn random_admissible(next: &mut impl FnMut() -> f64) -> (Inertia, Vector3<f64>, Vector3<f64>) {
+        loop {
+            let mut u = |lo: f64, hi: f64| lo + (hi - lo) * next();
+            let inertia = Inertia::new([u(0.5, 3.0), u(0.5, 3.0), u(0.5, 3.0)]).unwrap();
+            let om = Vector3::new(u(-2.0, 2.0), u(-2.0, 2.0), u(-2.0, 2.0));
+            let r = Vector3::new(u(-1.0, 1.0), u(-1.0, 1.0), u(-1.0, 1.0));
+            if om.norm() < 0.2 {
+                continue;
+            }
+            if let Some(xi) = admissible_xi(&om, &r) {
+                return (inertia, om, xi);
+            }
+        }
+    }
+
+    /// The paper's eqs. `Veqn`/`Aeqn`, transcribed by hand from the LaTeX.
+    fn paper_v(inertia: &Inertia, om: &Vector3<f64>, xi: &Vector3<f64>) -> Matrix6<f64> {
+        let eta = inertia.apply_inv(xi);
+        let den = xi.dot(&eta);
+        let p = nalgebra::Matrix3::new(-om[1], -om[2], 0.0, om[0], 0.0, -om[2], 0.0, om[0], om[1]);
+        let d = nalgebra::Matrix3::new(0.0, 0.0, -1.0, 0.0, 1.0, 0.0, -1.0, 0.0, 0.0);
+        let a = p + xi * (om.cross(&eta).transpose() * d) / den;
+        let iinv = nalgebra::Matrix3::from_diagonal(&inertia.diag().map(|v| 1.0 / v));
+        let mut v = Matrix6::zeros();
+        v.fixed_view_mut::<3, 3>(0, 0)
+            .copy_from(&(-(iinv / den) * xi * om.transpose()));
+        v.fixed_view_mut::<3, 3>(0, 3).copy_from(&(iinv / den * a));
+        v.fixed_view_mut::<3, 3>(3, 0)
+            .copy_from(&nalgebra::Matrix3::identity());
+        v
+    }
+
+    #[test]
+    fn rank_is_4_at_random_admissible_states() {
+        let mut next = rng(1);
+        let mut worst_gap: f64 = 0.0;
+        let mut min_s4 = f64::INFINITY;
+        for _ in 0..2000 {
+            let (inertia, om, xi) = random_admissible(&mut next);
+            let r = rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap();
+            assert_eq!(r.rank, 4, "{r:?} at {om:?}, {xi:?}, {inertia:?}");
+            assert!(r.relative_constraint.abs() < 1e-14);
+            worst_gap = worst_gap.max(r.gap);
+            min_s4 = min_s4.min(r.smallest_significant);
+        }
+        eprintln!("on M: worst sigma_5/sigma_4 = {worst_gap:e}, min sigma_4 = {min_s4:e}");
+        // The structurally zero singular values are round-off: many decades below sigma_4.
+        assert!(worst_gap < 1e-12, "gap {worst_gap:e}");
+        assert!(min_s4 > 1e-4, "sigma_4 {min_s4:e}");
+    }
+
+    #[test]
+    fn rank_is_5_off_m_and_3_at_rest() {
+        // Off M only <Omega, xi> is invariant (derivation, codegen/control.py): rank 5 at
+        // generic states of R^6; sigma_5 ~ |<Omega, xi>|.
+        let mut next = rng(2);
+        let mut min_s5 = f64::INFINITY;
+        for _ in 0..500 {
+            let (inertia, om, _) = random_admissible(&mut next);
+            let xi = Vector3::new(next() - 0.5, next() - 0.5, next() + 0.2).normalize();
+            let r = rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap();
+            if r.relative_constraint.abs() > 1e-3 {
+                assert_eq!(r.rank, 5, "{r:?}");
+                min_s5 = min_s5.min(r.smallest_significant / r.relative_constraint.abs());
+                assert!(r.singular_values[5] < 1e-12 * r.singular_values[0]);
+            }
+        }
+        eprintln!("off M: min sigma_5 / |<Om,xi>|_rel = {min_s5:e}");
+        let r = rank_report(
+            &Inertia::paper(),
+            &Vector3::zeros(),
+            &Vector3::new(0.0, 1.0, 0.0),
+            RANK_RTOL,
+        )
+        .unwrap();
+        assert_eq!(r.rank, 3, "{r:?}");
+        assert!(rank_report(&Inertia::paper(), &Vector3::x(), &Vector3::zeros(), 1e-9).is_err());
+    }
+
+    #[test]
+    fn spherical_body_is_driftless_and_others_are_not() {
+        let mut next = rng(3);
+        let mut min_drift = f64::INFINITY;
+        let mut max_sphere: f64 = 0.0;
+        for _ in 0..1000 {
+            let (inertia, om, xi) = random_admissible(&mut next);
+            let c = 0.5 + 2.5 * next();
+            let sphere = Inertia::new([c, c, c]).unwrap();
+            let f = control_fields(&sphere, &om, &xi).unwrap().drift;
+            assert!(f.amax() <= 1e-14, "|f| = {:e}", f.amax());
+            max_sphere = max_sphere.max(f.amax());
+            // also off M: f = 0 identically for I = c Id
+            let f_off = control_fields(&sphere, &om, &(xi + om * 0.3))
+                .unwrap()
+                .drift;
+            assert!(f_off.amax() <= 1e-14, "|f| = {:e}", f_off.amax());
+            let d = inertia.diag();
+            let spread = (d.max() - d.min()) / d.max();
+            if spread > 0.1 {
+                let r = rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap();
+                min_drift = min_drift.min(r.drift_norm / om.norm_squared());
+                assert!(r.drift_norm > 0.0);
+            }
+        }
+        // Paper's inertia, Omega on a principal axis: (I Om) x Om = 0, so f = 0 there.
+        let f = control_fields(
+            &Inertia::paper(),
+            &Vector3::new(5.0, 0.0, 0.0),
+            &Vector3::y(),
+        )
+        .unwrap()
+        .drift;
+        assert_eq!(f.amax(), 0.0);
+        eprintln!("sphere: max |f| = {max_sphere:e}; non-spherical (spread > 0.1): min |f|/|Om|^2 = {min_drift:e}");
+        assert!(min_drift > 0.0);
+    }
+
+    #[test]
+    fn brackets_match_finite_differences_of_the_emitted_fields() {
+        let mut next = rng(4);
+        let mut worst: f64 = 0.0;
+        for k in 0..200 {
+            let (inertia, om, mut xi) = random_admissible(&mut next);
+            if k % 2 == 1 {
+                xi += om * 0.2; // also off M: the bracket identity holds in all of R^6
+            }
+            let fields = control_fields(&inertia, &om, &xi).unwrap();
+            let at = |x: &Vector6<f64>| {
+                control_fields(
+                    &inertia,
+                    &x.fixed_rows::<3>(0).into(),
+                    &x.fixed_rows::<3>(3).into(),
+                )
+                .unwrap()
+            };
+            let x0 = Vector6::new(om[0], om[1], om[2], xi[0], xi[1], xi[2]);
+            // (Dg_j) v by a central difference along v.
+            let dir = |j: usize, v: &Vector6<f64>| {
+                let h = 1e-5 / v.norm();
+                (at(&(x0 + v * h)).g[j] - at(&(x0 - v * h)).g[j]) / (2.0 * h)
+            };
+            for (b, (i, j)) in [(0, 1), (0, 2), (1, 2)].into_iter().enumerate() {
+                let fd = dir(j, &fields.g[i]) - dir(i, &fields.g[j]);
+                let err = (fd - fields.brackets[b]).amax() / (1.0 + fields.brackets[b].amax());
+                worst = worst.max(err);
+            }
+        }
+        eprintln!("brackets vs central differences: worst relative error {worst:e}");
+        assert!(worst < 1e-7, "worst relative FD error {worst:e}");
+    }
+
+    #[test]
+    fn v_matches_the_papers_eqs_veqn_aeqn() {
+        let mut next = rng(5);
+        let mut worst: f64 = 0.0;
+        for _ in 0..500 {
+            let (inertia, om, xi) = random_admissible(&mut next);
+            let xi = xi * (0.5 + next()); // not only unit xi
+            let v = control_fields(&inertia, &om, &xi)
+                .unwrap()
+                .accessibility_matrix();
+            let p = paper_v(&inertia, &om, &xi);
+            worst = worst.max((v - p).amax() / p.amax());
+        }
+        eprintln!("V vs eqs. Veqn/Aeqn: worst relative difference {worst:e}");
+        assert!(worst < 1e-13, "worst relative difference {worst:e}");
+    }
+
+    #[test]
+    fn fields_are_tangent_to_m() {
+        // Phi_* = [[I Om, 0], [xi, Om]] annihilates f, g_i and the brackets on M (eq. Phi_*).
+        let mut next = rng(6);
+        for _ in 0..500 {
+            let (inertia, om, xi) = random_admissible(&mut next);
+            let fl = control_fields(&inertia, &om, &xi).unwrap();
+            let i_om = inertia.apply(&om);
+            let all = [fl.drift, fl.g[0], fl.g[1], fl.g[2]]
+                .into_iter()
+                .chain(fl.brackets);
+            for v in all {
+                let (vo, vx) = (v.fixed_rows::<3>(0), v.fixed_rows::<3>(3));
+                let scale = 1.0 + v.amax() * (i_om.norm() + om.norm() + xi.norm());
+                assert!(i_om.dot(&vo).abs() < 1e-13 * scale);
+                assert!((xi.dot(&vo) + om.dot(&vx)).abs() < 1e-13 * scale);
+            }
+        }
+    }
+
+    #[test]
+    fn rank_is_4_along_the_singular_solution_of_the_paper_spiral() {
+        // (Omega_p, xi_p) with Omega_p = phi_par on E and xi_p its singular control lies on M.
+        let spiral = PaperSpiral::paper();
+        let path = spiral.phi_par();
+        let inertia = Inertia::paper();
+        let traj = |t: f64| singular_control_at(path, &inertia, t).map(|c| (path.value(t), c.xi));
+        let times: Vec<f64> = (0..=400).map(|k| 10.0 * k as f64 / 400.0).collect();
+        let tr = rank_along_fn(&inertia, &traj, &times, RANK_RTOL).unwrap();
+        assert_eq!((tr.min_rank, tr.max_rank, tr.points), (4, 4, 401));
+        eprintln!(
+            "paper spiral: rank {}..{}, min sigma_4 {:e} at t = {}, max gap {:e}, max |<Om,xi>| {:e}",
+            tr.min_rank, tr.max_rank, tr.min_significant, tr.t_min_significant, tr.max_gap,
+            tr.max_abs_constraint
+        );
+        assert!(tr.max_abs_constraint < 1e-12);
+        assert!(tr.min_significant > 1e-3, "{}", tr.min_significant);
+        assert!(tr.max_gap < 1e-12);
+        assert!(rank_along(&inertia, &[], RANK_RTOL).is_err());
+    }
+
+    #[test]
+    fn sampled_states_lie_on_m() {
+        let inertia = Inertia::paper();
+        let oa = Vector3::new(5.0, 0.0, 0.0);
+        let e = inertia.apply(&oa).dot(&oa);
+        for (om, xi) in sample_states_on_m(&inertia, &oa, 100, 7).unwrap() {
+            assert!((inertia.apply(&om).dot(&om) / e - 1.0).abs() < 1e-14);
+            assert!(om.dot(&xi).abs() < 1e-13 * om.norm());
+            assert!((xi.norm() - 1.0).abs() < 1e-14);
+            assert_eq!(rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap().rank, 4);
+        }
+        assert!(sample_states_on_m(&inertia, &Vector3::zeros(), 1, 7).is_err());
+        let table = report_table(
+            &inertia,
+            &sample_states_on_m(&inertia, &oa, 3, 1).unwrap(),
+            1e-9,
+        );
+        assert!(table
+            .unwrap()
+            .contains("rank on M (|<Om,xi>| < 1e-12 |Om||xi|): 4 (3 states)"));
+    }
+}
