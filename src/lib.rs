@@ -8,9 +8,11 @@
 //! - [`model`]: the Suslov equations, costate equations, boundary conditions and all their
 //!   Jacobians, *generated* from first principles by the sympy program in `codegen/`.
 //! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov.
+//! - [`config`]: users' own problems as TOML files (`suslov solve problem.toml`).
 
 pub mod app;
 pub mod bvp;
+pub mod config;
 pub mod continuation;
 pub mod ivp;
 pub mod model;

@@ -35,6 +35,16 @@ enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
+    /// Solve your own problem, described in a TOML file (schema: README, "Your own
+    /// problems"), verified, with summary.json, trajectory.csv, figures and a copy of the
+    /// file under DIR.
+    Solve {
+        /// The problem file (TOML).
+        config: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+    },
 }
 
 /// Progress on stderr: a spinner per case on a terminal, log lines otherwise.
@@ -134,24 +144,29 @@ fn main() -> ExitCode {
         bar: None,
         terminal: std::io::stderr().is_terminal(),
     };
-    match cli.command {
-        Command::Paper { out } => match app::run_paper(&out, &mut |e| reporter.event(e)) {
-            Ok(summary) => {
-                let failed = summary.cases.iter().any(|c| c.status != "converged");
-                if !cli.quiet {
-                    eprintln!("wrote {}", out.join("summary.json").display());
-                }
-                if failed {
-                    eprintln!("error: not every case converged (see summary.json)");
-                    ExitCode::FAILURE
-                } else {
-                    ExitCode::SUCCESS
-                }
+    let (result, out) = match cli.command {
+        Command::Paper { out } => (app::run_paper(&out, &mut |e| reporter.event(e)), out),
+        Command::Solve { config, out } => (
+            app::run_solve(&config, &out, &mut |e| reporter.event(e)),
+            out,
+        ),
+    };
+    match result {
+        Ok(summary) => {
+            let failed = summary.cases.iter().any(|c| c.status != "converged");
+            if !cli.quiet {
+                eprintln!("wrote {}", out.join("summary.json").display());
             }
-            Err(e) => {
-                eprintln!("error: {e}");
+            if failed {
+                eprintln!("error: not every case converged (see summary.json)");
                 ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
             }
-        },
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
     }
 }
