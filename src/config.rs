@@ -312,12 +312,21 @@ pub enum ConfigError {
         why: &'static str,
     },
     /// A vector off `Ω_a`'s energy ellipsoid.
-    #[error("`{field}`: {source}. Use that projection (or change omega_a)")]
+    #[error(
+        "`{field}` = {value:?} is off omega_a's energy ellipsoid by {mismatch:.3e} (relative \
+         kinetic energy; allowed {ENERGY_REL_TOL:e}): Suslov's equations conserve the kinetic \
+         energy, so no motion from omega_a reaches it. Its radial projection onto the \
+         ellipsoid is {projection:?}: use that (or change omega_a)"
+    )]
     OffEllipsoid {
         /// The key.
         field: String,
-        /// The mismatch and the projection.
-        source: ProblemError,
+        /// The value.
+        value: [f64; 3],
+        /// Relative energy mismatch.
+        mismatch: f64,
+        /// The radial projection onto the ellipsoid.
+        projection: [f64; 3],
     },
     /// The desired path does not start at `Ω_a`.
     #[error(
@@ -486,6 +495,25 @@ fn field_at(src: &str, pos: usize) -> Option<String> {
     (!parts.is_empty()).then(|| parts.join("."))
 }
 
+/// [`ConfigError::OffEllipsoid`] unless `v` is on `e` (relative energy within
+/// [`ENERGY_REL_TOL`]).
+fn on_ellipsoid(field: &str, e: &EnergyEllipsoid, v: &Vector3<f64>) -> Result<(), ConfigError> {
+    let mismatch = e.relative_mismatch(v);
+    if mismatch.abs() <= ENERGY_REL_TOL {
+        return Ok(());
+    }
+    let projection = e
+        .project(v)
+        .map(|p| [p[0], p[1], p[2]])
+        .unwrap_or([f64::NAN; 3]);
+    Err(ConfigError::OffEllipsoid {
+        field: field.to_string(),
+        value: [v[0], v[1], v[2]],
+        mismatch,
+        projection,
+    })
+}
+
 fn missing(field: &str, fix: impl Into<String>) -> ConfigError {
     ConfigError::Missing {
         field: field.to_string(),
@@ -649,9 +677,14 @@ impl ProblemFile {
             });
         }
         let ellipsoid =
-            EnergyEllipsoid::through(inertia, &omega_a).map_err(|e| ConfigError::Invalid {
+            EnergyEllipsoid::through(inertia, &omega_a).map_err(|_| ConfigError::Invalid {
                 field: "boundary.omega_a".into(),
-                message: format!("{e}; give a smaller vector"),
+                message: format!(
+                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a positive \
+                     finite number in f64 (over- or underflow); rescale omega_a or \
+                     body.inertia",
+                    inertia.apply(&omega_a).dot(&omega_a)
+                ),
             })?;
         let tt = boundary.terminal_time.as_ref().ok_or_else(|| {
             missing(
@@ -836,25 +869,11 @@ impl ProblemFile {
             OmegaBSpec::DesiredEnd => desired.end_point,
             OmegaBSpec::Vector(v) => finite3("boundary.omega_b", v)?,
         };
-        let mismatch = ellipsoid.relative_mismatch(&omega_b);
-        if mismatch.abs() > ENERGY_REL_TOL || !mismatch.is_finite() {
-            let projection = ellipsoid
-                .project(&omega_b)
-                .map(|v| [v[0], v[1], v[2]])
-                .unwrap_or([f64::NAN; 3]);
-            let field = match omega_b_spec {
-                OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
-                OmegaBSpec::Vector(_) => "boundary.omega_b",
-            };
-            return Err(ConfigError::OffEllipsoid {
-                field: field.into(),
-                source: ProblemError::OffEllipsoid {
-                    omega_b: omega_b.into(),
-                    mismatch,
-                    projection,
-                },
-            });
-        }
+        let field = match omega_b_spec {
+            OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
+            OmegaBSpec::Vector(_) => "boundary.omega_b",
+        };
+        on_ellipsoid(field, &ellipsoid, &omega_b)?;
 
         // The desired path starts at Omega_a.
         if gamma > 0.0 {
@@ -990,21 +1009,7 @@ impl ProblemFile {
                                   energy ellipsoid, which is undefined at 0",
                         });
                     }
-                    let mismatch = ellipsoid.relative_mismatch(&v);
-                    if mismatch.abs() > ENERGY_REL_TOL {
-                        let projection = ellipsoid
-                            .project(&v)
-                            .map(|p| [p[0], p[1], p[2]])
-                            .unwrap_or([f64::NAN; 3]);
-                        return Err(ConfigError::OffEllipsoid {
-                            field: key.into(),
-                            source: ProblemError::OffEllipsoid {
-                                omega_b: v.into(),
-                                mismatch,
-                                projection,
-                            },
-                        });
-                    }
+                    on_ellipsoid(key, ellipsoid, &v)?;
                 }
                 // ProjectedSegment is built through `from`'s ellipsoid, equal to Ω_a's.
                 let segment = ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| {
@@ -1125,9 +1130,15 @@ fn problem_error(e: ProblemError) -> ConfigError {
             value: value.to_string(),
             requirement: requirement.to_string(),
         },
-        e @ ProblemError::OffEllipsoid { .. } => ConfigError::OffEllipsoid {
+        ProblemError::OffEllipsoid {
+            omega_b,
+            mismatch,
+            projection,
+        } => ConfigError::OffEllipsoid {
             field: "boundary.omega_b".into(),
-            source: e,
+            value: omega_b,
+            mismatch,
+            projection,
         },
         ProblemError::ZeroOmegaA => ConfigError::ZeroVector {
             field: "boundary.omega_a".into(),
