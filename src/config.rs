@@ -669,7 +669,7 @@ impl ProblemFile {
                 )
             })?,
         )?;
-        if omega_a.norm() == 0.0 {
+        if omega_a.iter().all(|x| *x == 0.0) {
             return Err(ConfigError::ZeroVector {
                 field: "boundary.omega_a".into(),
                 why: "omega_a fixes the kinetic energy, i.e. the ellipsoid every trajectory \
@@ -1002,7 +1002,7 @@ impl ProblemFile {
                     });
                 }
                 for (key, v) in [("desired.from", from), ("desired.to", to)] {
-                    if v.norm() == 0.0 {
+                    if v.iter().all(|x| *x == 0.0) {
                         return Err(ConfigError::ZeroVector {
                             field: key.into(),
                             why: "the segment's end points are projected radially onto the \
@@ -1143,6 +1143,13 @@ fn problem_error(e: ProblemError) -> ConfigError {
         ProblemError::ZeroOmegaA => ConfigError::ZeroVector {
             field: "boundary.omega_a".into(),
             why: "it fixes the kinetic energy of the motion",
+        },
+        ProblemError::EnergyOutOfRange { level } => ConfigError::Invalid {
+            field: "boundary.omega_a".into(),
+            message: format!(
+                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a positive \
+                 finite number in f64; rescale omega_a or body.inertia"
+            ),
         },
         ProblemError::EmptyInterval { t0, b } => ConfigError::TerminalTime {
             field: "boundary.terminal_time".into(),

@@ -513,3 +513,32 @@ fn the_command_line_prints_the_error_and_fails() {
         "nothing is written for an invalid file"
     );
 }
+
+#[test]
+fn an_energy_level_that_overflows_is_an_error_not_a_panic() {
+    let (_, msg) = error(
+        &with_line("omega_a =", "omega_a = [1e200, 0.0, 0.0]"),
+        "boundary.omega_a",
+    );
+    assert_contains(
+        &msg,
+        &["kinetic energy", "inf", "rescale omega_a or body.inertia"],
+    );
+    let (_, msg) = error(
+        &with_line("omega_a =", "omega_a = [1e-170, 0.0, 0.0]"),
+        "boundary.omega_a",
+    );
+    assert_contains(&msg, &["0e0", "rescale"]);
+    // The library's own check (it used to panic in `ellipsoid()`).
+    let mut p = suslov::suslov::paper::problem(1.0);
+    p.omega_a = nalgebra::Vector3::new(1e200, 0.0, 0.0);
+    let e = p.validate().unwrap_err();
+    assert!(
+        matches!(
+            e,
+            suslov::suslov::problem::ProblemError::EnergyOutOfRange { .. }
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("rescale omega_a"), "{e}");
+}
