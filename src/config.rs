@@ -27,7 +27,7 @@
 //! delta = 0.2                        # >= 0, optional, default 0
 //!
 //! [desired]                          # Ω_d(t)
-//! kind = "paper-spiral"              # or "segment", "constant"
+//! kind = "paper-spiral"              # or "segment", "constant", "samples"
 //! c = 10.0                           # paper-spiral: optional, default 10
 //! width = 0.01                       # paper-spiral: optional, default 0.01 (> 0)
 //! b_d = 10.0                         # paper-spiral: optional, default 10
@@ -48,7 +48,11 @@
 //!   `boundary.omega_b`) at `interval[1]` (default `[t0, terminal time]`)
 //!   ([`ProjectedSegment`]); its end point is `to`.
 //! - `"constant"`: `Ω_d = value`; its end point is `value`.
-//! - `"samples"` (`file = "omega_d.csv"`) is not supported yet and is rejected.
+//! - `"samples"`: `file = "omega_d.csv"` (relative to the problem file), rows
+//!   `t, omega1, omega2, omega3` ([`parse_samples`]), strictly increasing `t`, covering `t0`;
+//!   the natural cubic spline through them ([`SampledPath`], C², linear beyond the last
+//!   sample) projected radially onto the energy ellipsoid ([`Projected`]); its end point is
+//!   the projected last sample and its end time the last `t`.
 //!
 //! `omega_b = "desired_end"` takes `Ω_b` = the desired path's end point (which must lie on
 //! the energy ellipsoid). A free terminal time's `guess` defaults to the path's end time
@@ -56,7 +60,7 @@
 //!
 //! Checks beyond the types: no NaN or infinity anywhere (TOML has `nan` and `inf` literals);
 //! `Ω_b` on `Ω_a`'s energy ellipsoid (relative energy mismatch ≤
-//! [`ENERGY_REL_TOL`](crate::suslov::problem::ENERGY_REL_TOL), Suslov's equations conserve
+//! [`ENERGY_REL_TOL`], Suslov's equations conserve
 //! it); when `γ > 0`, the desired path starts at `Ω_a`: `|Ω_d(t0) − Ω_a| ≤`
 //! [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is not part of the cost and is
 //! not checked).
@@ -69,7 +73,9 @@ use nalgebra::Vector3;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
-use crate::suslov::desired::{Constant, DesiredPath, PaperSpiral, ProjectedSegment};
+use crate::suslov::desired::{
+    Constant, DesiredPath, PaperSpiral, Projected, ProjectedSegment, SampledPath,
+};
 use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
 use crate::suslov::problem::{
     CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
@@ -185,7 +191,7 @@ pub struct CostSection {
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct DesiredSection {
-    /// `"paper-spiral"`, `"segment"`, `"constant"` (or `"samples"`, not supported yet).
+    /// `"paper-spiral"`, `"segment"`, `"constant"` or `"samples"`.
     pub kind: Option<String>,
     /// paper-spiral: spiral offset (default 10).
     pub c: Option<f64>,
@@ -201,7 +207,7 @@ pub struct DesiredSection {
     pub to: Option<[f64; 3]>,
     /// segment: `[start time, end time]` (default `[t0, terminal time]`).
     pub interval: Option<[f64; 2]>,
-    /// samples: the CSV file (not supported yet).
+    /// samples: the CSV file (relative to the problem file).
     pub file: Option<String>,
 }
 
@@ -357,16 +363,6 @@ pub enum ConfigError {
         /// What is wrong and the fix.
         message: String,
     },
-    /// A valid but not yet supported choice.
-    #[error("`{field}` = {value}: not yet supported. {alternative}")]
-    Unsupported {
-        /// The key.
-        field: String,
-        /// The value, formatted.
-        value: String,
-        /// What to use instead.
-        alternative: &'static str,
-    },
     /// Any other invalid value or combination (names the key and the fix).
     #[error("`{field}`: {message}")]
     Invalid {
@@ -391,7 +387,6 @@ impl ConfigError {
             | ConfigError::ZeroVector { field, .. }
             | ConfigError::OffEllipsoid { field, .. }
             | ConfigError::TerminalTime { field, .. }
-            | ConfigError::Unsupported { field, .. }
             | ConfigError::Invalid { field, .. } => Some(field),
             ConfigError::DesiredStart { .. } => Some("desired"),
         }
@@ -408,23 +403,25 @@ pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
         .file_stem()
         .map(|s| s.to_string_lossy().into_owned())
         .unwrap_or_else(|| "problem".to_string());
-    parse(&text, &default_name).map_err(|e| ConfigError::InFile {
+    let base = path.parent().unwrap_or(Path::new(""));
+    parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
         path: path.to_path_buf(),
         source: Box::new(e),
     })
 }
 
-/// Check a problem given as TOML text (case name default `"problem"`).
+/// Check a problem given as TOML text (case name default `"problem"`; a samples file is
+/// looked up relative to the current directory).
 pub fn from_toml_str(text: &str) -> Result<LoadedProblem, ConfigError> {
-    parse(text, "problem")
+    parse(text, "problem", Path::new(""))
 }
 
-fn parse(text: &str, default_name: &str) -> Result<LoadedProblem, ConfigError> {
+fn parse(text: &str, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
     let file: ProblemFile = toml::from_str(text).map_err(|e| ConfigError::Toml {
         field: e.span().and_then(|span| field_at(text, span.start)),
         message: e.to_string().trim_end().to_string(),
     })?;
-    file.build(default_name)
+    file.build(default_name, base_dir)
 }
 
 /// The TOML path (table header and keys) at byte offset `pos` of `src`, best effort: the
@@ -604,6 +601,8 @@ struct Desired {
     end_point: Vector3<f64>,
     /// Which keys move its start (for the error message).
     start_hint: &'static str,
+    /// The path's natural end time (default start value of a free terminal time).
+    end_time: Option<f64>,
 }
 
 /// Terminal time as given, before defaults from the desired path.
@@ -612,11 +611,65 @@ enum Terminal {
     Free(Option<f64>),
 }
 
-const KINDS: &str = "\"paper-spiral\", \"segment\" or \"constant\"";
+const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"";
+
+/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; blank lines, `#` comments and
+/// a first line that is not numeric (a header) are skipped. Errors name the line.
+pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
+    let mut times = Vec::new();
+    let mut values = Vec::new();
+    let mut first_content = true;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let numbers: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let header = std::mem::replace(&mut first_content, false);
+        let numbers = match numbers {
+            Ok(n) => n,
+            Err(_) if header => continue,
+            Err(e) => return Err(format!("line {}: {e} in {line:?}", i + 1)),
+        };
+        if numbers.len() != 4 {
+            return Err(format!(
+                "line {}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {}",
+                i + 1,
+                numbers.len()
+            ));
+        }
+        if let Some(x) = numbers.iter().find(|x| !x.is_finite()) {
+            return Err(format!("line {}: {x} is not a finite number", i + 1));
+        }
+        if numbers[1..].iter().all(|x| *x == 0.0) {
+            return Err(format!(
+                "line {}: Omega_d = 0 cannot be projected onto the energy ellipsoid",
+                i + 1
+            ));
+        }
+        if let Some(&prev) = times.last() {
+            if numbers[0] <= prev {
+                return Err(format!(
+                    "line {}: t = {} does not increase (previous t = {prev})",
+                    i + 1,
+                    numbers[0]
+                ));
+            }
+        }
+        times.push(numbers[0]);
+        values.push([numbers[1], numbers[2], numbers[3]]);
+    }
+    if times.len() < 2 {
+        return Err(format!("needs at least 2 samples, found {}", times.len()));
+    }
+    Ok((times, values))
+}
 
 impl ProblemFile {
-    /// Check every field and build the problem; `default_name` is used without `name`.
-    pub fn build(&self, default_name: &str) -> Result<LoadedProblem, ConfigError> {
+    /// Check every field and build the problem; `default_name` is used without `name`, and
+    /// a relative `desired.file` is looked up in `base_dir`.
+    pub fn build(&self, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
         let name = match &self.name {
             Some(n) if n.trim().is_empty() => {
                 return Err(ConfigError::Invalid {
@@ -817,6 +870,7 @@ impl ProblemFile {
             )
         })?;
         let desired = self.build_desired(
+            base_dir,
             kind,
             desired_section,
             inertia,
@@ -831,19 +885,15 @@ impl ProblemFile {
             Terminal::Fixed(b) => TerminalTime::Fixed(b),
             Terminal::Free(Some(g)) => TerminalTime::Free { guess: g },
             Terminal::Free(None) => {
-                let guess = match (kind, desired_section.b_d, desired_section.interval) {
-                    ("paper-spiral", b_d, _) => b_d.unwrap_or(10.0),
-                    ("segment", _, Some(iv)) => iv[1],
-                    _ => {
-                        return Err(missing(
-                            "boundary.terminal_time.guess",
-                            format!(
-                                "a free terminal time needs a start value with kind = \
-                                 \"{kind}\": write terminal_time = {{ free = true, guess = b }}"
-                            ),
-                        ))
-                    }
-                };
+                let guess = desired.end_time.ok_or_else(|| {
+                    missing(
+                        "boundary.terminal_time.guess",
+                        format!(
+                            "a free terminal time needs a start value with kind = \
+                             \"{kind}\": write terminal_time = {{ free = true, guess = b }}"
+                        ),
+                    )
+                })?;
                 if guess <= t0 {
                     return Err(ConfigError::TerminalTime {
                         field: "boundary.terminal_time.guess".into(),
@@ -919,6 +969,7 @@ impl ProblemFile {
     #[allow(clippy::too_many_arguments)]
     fn build_desired(
         &self,
+        base_dir: &Path,
         kind: &str,
         d: &DesiredSection,
         inertia: Inertia,
@@ -960,6 +1011,7 @@ impl ProblemFile {
                     end_point,
                     start_hint: "the spiral starts on the ray of [c, t0 cos t0, t0 sin t0]; \
                                  with t0 = 0 any omega_a = [x, 0, 0] with x > 0 and c > 0",
+                    end_time: Some(b_d),
                 })
             }
             "segment" => {
@@ -1024,6 +1076,7 @@ impl ProblemFile {
                     end_point: to,
                     start_hint: "set desired.from = omega_a (the default) and \
                                  desired.interval[0] = t0",
+                    end_time: Some(b),
                 })
             }
             "constant" => {
@@ -1040,14 +1093,45 @@ impl ProblemFile {
                     end_point: value,
                     start_hint: "value = omega_a; or set cost.gamma = 0, then Omega_d is not \
                                  part of the cost",
+                    end_time: None,
                 })
             }
-            "samples" => Err(ConfigError::Unsupported {
-                field: "desired.kind".into(),
-                value: "\"samples\"".into(),
-                alternative: "Desired paths from a CSV file come in a later version; use \
-                              kind = \"paper-spiral\", \"segment\" or \"constant\"",
-            }),
+            "samples" => {
+                reject_unused(d, kind, &["file"])?;
+                let file = d.file.as_deref().ok_or_else(|| {
+                    missing(
+                        "desired.file",
+                        "add file = \"omega_d.csv\" under [desired] (columns t, omega1, \
+                         omega2, omega3; relative to the problem file)",
+                    )
+                })?;
+                let path = base_dir.join(file);
+                let bad = |message: String| ConfigError::Invalid {
+                    field: "desired.file".into(),
+                    message: format!("{}: {message}", path.display()),
+                };
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| bad(format!("cannot read it ({e})")))?;
+                let (times, values) = parse_samples(&text).map_err(&bad)?;
+                let (first, last) = (times[0], times[times.len() - 1]);
+                if !(first <= t0 && t0 < last) {
+                    return Err(bad(format!(
+                        "the samples cover [{first}, {last}], which must contain \
+                         boundary.t0 = {t0} (and reach beyond it)"
+                    )));
+                }
+                let spline = SampledPath::new(&times, &values).map_err(|e| bad(e.to_string()))?;
+                let path = Projected::new(spline, *ellipsoid);
+                let end_point = path.value(last);
+                Ok(Desired {
+                    kind: "samples",
+                    path: Arc::new(path),
+                    end_point,
+                    start_hint: "the first sample, projected radially onto the energy \
+                                 ellipsoid, must be omega_a",
+                    end_time: Some(last),
+                })
+            }
             other => Err(ConfigError::Invalid {
                 field: "desired.kind".into(),
                 message: format!("unknown kind \"{other}\"; use {KINDS}"),

@@ -367,21 +367,13 @@ fn terminal_time_must_be_after_t0_and_fixed_or_free() {
 }
 
 #[test]
-fn desired_kinds_unknown_or_not_yet_supported() {
-    let samples = BASE.replace(
-        "kind = \"paper-spiral\"",
-        "kind = \"samples\"\nfile = \"omega_d.csv\"",
-    );
-    let (e, msg) = error(&samples, "desired.kind");
-    assert!(matches!(e, ConfigError::Unsupported { .. }));
-    assert_contains(&msg, &["\"samples\"", "not yet supported", "paper-spiral"]);
-
+fn desired_kinds_unknown_or_misparametrized() {
     let (_, msg) = error(&with_line("kind =", "kind = \"spiral\""), "desired.kind");
     assert_contains(
         &msg,
         &[
             "unknown kind \"spiral\"",
-            "\"paper-spiral\", \"segment\" or \"constant\"",
+            "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"",
         ],
     );
 
@@ -541,4 +533,103 @@ fn an_energy_level_that_overflows_is_an_error_not_a_panic() {
         "{e}"
     );
     assert!(e.to_string().contains("rescale omega_a"), "{e}");
+}
+
+/// A samples problem around `csv` (written next to the problem file).
+fn samples_problem(name: &str, csv: &str) -> Result<config::LoadedProblem, ConfigError> {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("config_samples");
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join(format!("{name}.csv")), csv).unwrap();
+    let path = dir.join(format!("{name}.toml"));
+    std::fs::write(&path, samples_doc(&format!("{name}.csv"))).unwrap();
+    config::load(&path)
+}
+
+/// `BASE` with `[desired] kind = "samples", file = <file>`.
+fn samples_doc(file: &str) -> String {
+    BASE.replace(
+        "kind = \"paper-spiral\"",
+        &format!("kind = \"samples\"\nfile = \"{file}\""),
+    )
+    .replace("c = 10.0\n", "")
+    .replace("width = 0.01\n", "")
+    .replace("b_d = 10.0\n", "")
+}
+
+#[test]
+fn samples_files_are_checked_line_by_line() {
+    let good = "t,w1,w2,w3\n0,10,0,0\n5,10,1,2\n10,10,-1,3\n";
+    let p = samples_problem("good", good).unwrap();
+    // Projected onto E: starts at omega_a, ends at the projected last sample, guess = 10.
+    assert!((p.problem.desired.value(0.0) - p.problem.omega_a).norm() < 1e-14);
+    assert_eq!(
+        p.problem.terminal,
+        suslov::suslov::problem::TerminalTime::Free { guess: 10.0 }
+    );
+    assert!(
+        p.problem
+            .ellipsoid()
+            .relative_mismatch(&p.problem.omega_b)
+            .abs()
+            < 1e-14
+    );
+
+    let cases = [
+        ("short", "t,a,b,c\n0,10,0,0\n", "needs at least 2 samples"),
+        (
+            "columns",
+            "0,10,0,0\n1,10,0\n",
+            "line 2: expected 4 comma-separated numbers",
+        ),
+        (
+            "text",
+            "0,10,0,0\n1,10,x,0\n",
+            "line 2: invalid float literal",
+        ),
+        (
+            "order",
+            "0,10,0,0\n2,10,0,1\n1,10,1,0\n",
+            "line 3: t = 1 does not increase",
+        ),
+        (
+            "nan",
+            "0,10,0,0\n1,NaN,0,0\n",
+            "line 2: NaN is not a finite number",
+        ),
+        (
+            "zero",
+            "0,10,0,0\n1,0,0,0\n",
+            "line 2: Omega_d = 0 cannot be projected",
+        ),
+        (
+            "late",
+            "1,10,0,0\n2,10,0,1\n",
+            "cover [1, 2], which must contain boundary.t0 = 0",
+        ),
+    ];
+    for (name, csv, words) in cases {
+        let e = samples_problem(name, csv).unwrap_err();
+        assert_eq!(e.field(), Some("desired.file"), "{e}");
+        let msg = e.to_string();
+        assert_contains(&msg, &["`desired.file`", &format!("{name}.csv"), words]);
+    }
+    let (_, msg) = error(&samples_doc("nope.csv"), "desired.file");
+    assert_contains(&msg, &["nope.csv", "cannot read it"]);
+    let (_, msg) = error(
+        &samples_doc("x.csv").replace("file = \"x.csv\"", ""),
+        "desired.file",
+    );
+    assert_contains(&msg, &["missing", "file = \"omega_d.csv\""]);
+    let (_, msg) = error(
+        &BASE.replace("kind = \"paper-spiral\"", "kind = \"samples\""),
+        "desired.c",
+    );
+    assert_contains(
+        &msg,
+        &["not a parameter of kind = \"samples\"", "its keys: file"],
+    );
+    // Not starting at omega_a (the first sample's ray is not omega_a's).
+    let e = samples_problem("off", "0,1,1,0\n1,10,0,0\n").unwrap_err();
+    assert_eq!(e.field(), Some("desired"), "{e}");
+    assert_contains(&e.to_string(), &["kind = \"samples\"", "first sample"]);
 }

@@ -32,6 +32,7 @@ fn every_example_loads_and_validates() {
         "spiral_fixed_time",
         "segment",
         "no_tracking",
+        "spiral_samples",
     ] {
         assert!(
             names.iter().any(|n| n == expected),
