@@ -10,6 +10,10 @@
 //! DIR/<case>/*.png             Ω, Ω_d and ξ_∥ in 3-D; ⟨Ω, ξ⟩; |ξ|; κ; Ω components
 //! ```
 //!
+//! [`run_solve`] does the same for one problem read from a TOML file ([`crate::config`]),
+//! writing `summary.json`, the trajectory and the figures directly into its directory, with
+//! a copy of the problem file as `problem.toml`.
+//!
 //! Every file is written atomically. A case that fails writes what it has, marked: its
 //! summary status says `partial: <stage, parameter value, reason>` and its trajectory goes
 //! to `trajectory.partial.csv`.
@@ -17,6 +21,7 @@
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+use crate::config::{self, ConfigError};
 use crate::report::{
     self, CaseSummary, FigureFormat, FigureOptions, ReportError, StabilityRun, StageSummary,
     Summary, TrajectoryTable,
@@ -51,6 +56,9 @@ pub enum AppError {
     /// Writing an output failed.
     #[error(transparent)]
     Report(#[from] ReportError),
+    /// The problem file is invalid (names the field and the fix).
+    #[error(transparent)]
+    Config(#[from] ConfigError),
 }
 
 /// Sample a solution on a uniform grid of `[a, b]` with `Ω_d`.
@@ -263,5 +271,39 @@ pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary
         report::write_summary_json(&path, &summary)?;
         events(AppEvent::Wrote(&path));
     }
+    Ok(summary)
+}
+
+/// `suslov solve CONFIG --out DIR`: read the problem file (see [`crate::config`] for the
+/// schema), solve and verify it, and write `DIR/summary.json` (one case),
+/// `DIR/trajectory.csv` (or `trajectory.partial.csv`), the figures and `DIR/problem.toml`
+/// (a copy of the input). An invalid file is an error before anything is written; a solver
+/// failure is not (it is recorded in the summary's status).
+pub fn run_solve(
+    config_path: &Path,
+    out: &Path,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Summary, AppError> {
+    let loaded = config::load(config_path)?;
+    let text = std::fs::read(config_path).map_err(|source| ReportError::Io {
+        path: config_path.to_path_buf(),
+        source,
+    })?;
+    let mut case = run_case(&loaded.name, &loaded.problem, out, &loaded.options, events)?;
+    case.extra.insert(
+        "problem_file".into(),
+        serde_json::json!(config_path.display().to_string()),
+    );
+    let copy = out.join("problem.toml");
+    std::fs::create_dir_all(out).map_err(|source| ReportError::Io {
+        path: out.to_path_buf(),
+        source,
+    })?;
+    report::write_atomic(&copy, &text)?;
+    events(AppEvent::Wrote(&copy));
+    let summary = Summary { cases: vec![case] };
+    let path = out.join("summary.json");
+    report::write_summary_json(&path, &summary)?;
+    events(AppEvent::Wrote(&path));
     Ok(summary)
 }

@@ -65,6 +65,7 @@
 
 pub mod app;
 pub mod bvp;
+pub mod config;
 pub mod continuation;
 pub mod ivp;
 pub mod model;

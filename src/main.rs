@@ -35,6 +35,16 @@ enum Command {
         #[arg(long, default_value = "out")]
         out: PathBuf,
     },
+    /// Solve your own problem, described in a TOML file (schema: README, "Your own
+    /// problems"), verified, with summary.json, trajectory.csv, figures and a copy of the
+    /// file under DIR.
+    Solve {
+        /// The problem file (TOML).
+        config: PathBuf,
+        /// Output directory (created if missing).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Accessibility rank test of Suslov's pure equations (paper section 4.3): rank of
     /// V = [g1, g2, g3, [g_i, g_j]], its singular values and the drift, at one state
     /// (--omega and --xi) or at random states of M with the energy of --omega-a.
@@ -113,11 +123,7 @@ impl Reporter {
                 }
             }
             AppEvent::Solve(Event::StageStarted { name, from, to }) => {
-                let text = if from == to {
-                    format!("  stage {name}")
-                } else {
-                    format!("  stage {name}: {from:.6} -> {to:.6}")
-                };
+                let text = format!("  stage {name}: {from:.6} -> {to:.6}");
                 if let Some(bar) = &self.bar {
                     bar.set_message(text.trim().to_string());
                 }
@@ -178,34 +184,41 @@ fn main() -> ExitCode {
         bar: None,
         terminal: std::io::stderr().is_terminal(),
     };
-    match cli.command {
-        Command::Controllability(a) => match run_controllability(&a) {
-            Ok(table) => {
-                print!("{table}");
-                ExitCode::SUCCESS
-            }
-            Err(e) => {
-                eprintln!("error: {e}");
-                ExitCode::FAILURE
-            }
-        },
-        Command::Paper { out } => match app::run_paper(&out, &mut |e| reporter.event(e)) {
-            Ok(summary) => {
-                let failed = summary.cases.iter().any(|c| c.status != "converged");
-                if !cli.quiet {
-                    eprintln!("wrote {}", out.join("summary.json").display());
-                }
-                if failed {
-                    eprintln!("error: not every case converged (see summary.json)");
-                    ExitCode::FAILURE
-                } else {
+    let (result, out) = match cli.command {
+        Command::Controllability(a) => {
+            return match run_controllability(&a) {
+                Ok(table) => {
+                    print!("{table}");
                     ExitCode::SUCCESS
                 }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
+        Command::Paper { out } => (app::run_paper(&out, &mut |e| reporter.event(e)), out),
+        Command::Solve { config, out } => (
+            app::run_solve(&config, &out, &mut |e| reporter.event(e)),
+            out,
+        ),
+    };
+    match result {
+        Ok(summary) => {
+            let failed = summary.cases.iter().any(|c| c.status != "converged");
+            if !cli.quiet {
+                eprintln!("wrote {}", out.join("summary.json").display());
             }
-            Err(e) => {
-                eprintln!("error: {e}");
+            if failed {
+                eprintln!("error: not every case converged (see summary.json)");
                 ExitCode::FAILURE
+            } else {
+                ExitCode::SUCCESS
             }
-        },
+        }
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
     }
 }

@@ -15,6 +15,7 @@
 //!   `s(t) = σ(t − b_d)`, `σ(t) = ½[1 + tanh(t/w)]` (eqs. `eq_phi` … `eq_Om_d`), with
 //!   `Ω_b = φ_∥(b_d)` computed.
 //! - [`Constant`]: `Ω(t) = v`.
+//! - [`SampledPath`]: the natural cubic spline through samples `(t_k, Ω_k)` (C²).
 //! - [`ProjectedSegment`]: a geodesic-like path on `E` from `Ω_a` at `t = a` to `Ω_b` at
 //!   `t = b`: the radial projection of the straight segment, traversed at constant parameter
 //!   speed (the paper's suggested nominal `Ω_p` when `γ = 0`, section 5.2).
@@ -345,6 +346,123 @@ impl PathEval for ProjectedSegment {
     }
 }
 
+/// A path through samples `(t_k, Ω_k)`: per component the natural cubic spline (C², second
+/// derivative 0 at both ends), extended linearly outside `[t_0, t_n]` (which keeps it C²).
+/// Written generically, so [`DesiredPath::jet`] gives its exact derivatives (the third is
+/// piecewise constant, discontinuous at the knots). Wrap it in [`Projected`] to put it on an
+/// energy ellipsoid.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SampledPath {
+    knots: Vec<f64>,
+    /// Per interval and component: `[a, b, c, d]` of `a + b s + c s² + d s³`, `s = t − t_k`.
+    coeffs: Vec<[[f64; 4]; 3]>,
+    /// Value and slope at the last knot (linear extension to the right).
+    end: ([f64; 3], [f64; 3]),
+}
+
+impl SampledPath {
+    /// The spline through `values[k]` at `times[k]`; needs at least 2 samples, finite values
+    /// and strictly increasing times.
+    pub fn new(times: &[f64], values: &[[f64; 3]]) -> Result<Self, SuslovError> {
+        let invalid = |what: String| Err(SuslovError::InvalidInput { what });
+        if times.len() != values.len() {
+            return invalid(format!("{} times but {} values", times.len(), values.len()));
+        }
+        if times.len() < 2 {
+            return invalid(format!(
+                "a sampled path needs at least 2 samples, got {}",
+                times.len()
+            ));
+        }
+        for (k, (t, v)) in times.iter().zip(values).enumerate() {
+            if !t.is_finite() || v.iter().any(|x| !x.is_finite()) {
+                return invalid(format!("sample {k} (t = {t}, value = {v:?}) is not finite"));
+            }
+            if k > 0 && *t <= times[k - 1] {
+                return invalid(format!(
+                    "times must increase strictly: sample {k} has t = {t} after t = {}",
+                    times[k - 1]
+                ));
+            }
+        }
+        let n = times.len() - 1; // intervals
+        let h: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
+        let mut coeffs = vec![[[0.0; 4]; 3]; n];
+        let mut end = ([0.0; 3], [0.0; 3]);
+        for c in 0..3 {
+            let y: Vec<f64> = values.iter().map(|v| v[c]).collect();
+            // Second derivatives m[0..=n], m[0] = m[n] = 0 (Thomas algorithm on 1..n-1).
+            let mut m = vec![0.0; n + 1];
+            if n >= 2 {
+                let mut diag = vec![0.0; n + 1];
+                let mut rhs = vec![0.0; n + 1];
+                for i in 1..n {
+                    diag[i] = 2.0 * (h[i - 1] + h[i]);
+                    rhs[i] = 6.0 * ((y[i + 1] - y[i]) / h[i] - (y[i] - y[i - 1]) / h[i - 1]);
+                }
+                for i in 2..n {
+                    let w = h[i - 1] / diag[i - 1];
+                    diag[i] -= w * h[i - 1];
+                    rhs[i] -= w * rhs[i - 1];
+                }
+                m[n - 1] = rhs[n - 1] / diag[n - 1];
+                for i in (1..n - 1).rev() {
+                    m[i] = (rhs[i] - h[i] * m[i + 1]) / diag[i];
+                }
+            }
+            for i in 0..n {
+                coeffs[i][c] = [
+                    y[i],
+                    (y[i + 1] - y[i]) / h[i] - h[i] * (2.0 * m[i] + m[i + 1]) / 6.0,
+                    m[i] / 2.0,
+                    (m[i + 1] - m[i]) / (6.0 * h[i]),
+                ];
+            }
+            let [_, b, cc, d] = coeffs[n - 1][c];
+            let hn = h[n - 1];
+            end.0[c] = y[n];
+            end.1[c] = b + 2.0 * cc * hn + 3.0 * d * hn * hn;
+        }
+        Ok(Self {
+            knots: times.to_vec(),
+            coeffs,
+            end,
+        })
+    }
+
+    /// The sample times `t_0 < … < t_n`.
+    pub fn times(&self) -> &[f64] {
+        &self.knots
+    }
+}
+
+impl PathEval for SampledPath {
+    fn eval<D: Scalar>(&self, t: D) -> [D; 3] {
+        let x = t.re();
+        let last = self.knots[self.knots.len() - 1];
+        if x > last {
+            let s = t - last;
+            return [0, 1, 2].map(|c| s * self.end.1[c] + self.end.0[c]);
+        }
+        // Interval k with t_k <= x < t_{k+1} (the first one left of t_0: linear there, m_0 = 0).
+        let k = self
+            .knots
+            .partition_point(|&tk| tk <= x)
+            .saturating_sub(1)
+            .min(self.coeffs.len() - 1);
+        let s = t - self.knots[k];
+        let left = x < self.knots[0];
+        [0, 1, 2].map(|c| {
+            let [a, b, cc, d] = self.coeffs[k][c];
+            if left {
+                s * b + a
+            } else {
+                ((s * d + cc) * s + b) * s + a
+            }
+        })
+    }
+}
+
 /// 8th-order central finite-difference derivatives of `path.value` (test oracle only):
 /// returns `(Ω̇, Ω̈, d³Ω/dt³)` with step `h`.
 pub fn finite_difference_derivatives(
@@ -575,6 +693,62 @@ impl DesiredPath for ProjectedPath {
             d2: pick(|d| d.v2),
             d3: pick(|d| d.v3),
         }
+    }
+}
+
+#[cfg(test)]
+mod sampled_path_tests {
+    use super::*;
+
+    #[test]
+    fn the_spline_interpolates_is_c2_and_reproduces_lines() {
+        let times = [0.0, 0.5, 1.3, 2.0, 3.1];
+        let values: Vec<[f64; 3]> = times
+            .iter()
+            .map(|&t: &f64| [t.sin(), 2.0 - t, t * t])
+            .collect();
+        let p = SampledPath::new(&times, &values).unwrap();
+        for (t, v) in times.iter().zip(&values) {
+            let got = p.value(*t);
+            for c in 0..3 {
+                assert!((got[c] - v[c]).abs() < 1e-14, "t = {t}: {got} vs {v:?}");
+            }
+        }
+        // A line is reproduced exactly (natural end conditions hold for it).
+        let j = p.jet(0.9);
+        assert!((j.value[1] - 1.1).abs() < 1e-14 && (j.d1[1] + 1.0).abs() < 1e-14);
+        assert!(j.d2[1].abs() < 1e-13 && j.d3[1].abs() < 1e-12);
+        // C2 at interior knots and at both ends (linear extension).
+        for &t in &[0.0, 0.5, 1.3, 2.0, 3.1] {
+            let (l, r) = (p.jet(t - 1e-9), p.jet(t + 1e-9));
+            assert!((l.value - r.value).norm() < 1e-7, "value at {t}");
+            assert!((l.d1 - r.d1).norm() < 1e-7, "d1 at {t}");
+            assert!(
+                (l.d2 - r.d2).norm() < 1e-6,
+                "d2 at {t}: {} vs {}",
+                l.d2,
+                r.d2
+            );
+        }
+        // Linear outside, second derivative 0.
+        assert_eq!(p.jet(-1.0).d2, Vector3::zeros());
+        assert_eq!(p.jet(5.0).d2, Vector3::zeros());
+        // Exact derivatives against finite differences inside an interval.
+        let (d1, d2, _) = finite_difference_derivatives(&p, 0.9, 1e-3);
+        let j = p.jet(0.9);
+        assert!((j.d1 - d1).norm() < 1e-9 && (j.d2 - d2).norm() < 1e-6);
+    }
+
+    #[test]
+    fn bad_samples_are_errors() {
+        assert!(SampledPath::new(&[0.0], &[[1.0; 3]]).is_err());
+        assert!(SampledPath::new(&[0.0, 0.0], &[[1.0; 3]; 2]).is_err());
+        assert!(SampledPath::new(&[0.0, 1.0], &[[1.0; 3], [f64::NAN, 1.0, 1.0]]).is_err());
+        assert!(SampledPath::new(&[0.0, 1.0], &[[1.0; 3]]).is_err());
+        // Two samples: the straight line.
+        let p = SampledPath::new(&[0.0, 2.0], &[[0.0; 3], [2.0, 4.0, 6.0]]).unwrap();
+        assert_eq!(p.value(1.0), Vector3::new(1.0, 2.0, 3.0));
+        assert_eq!(p.value(3.0), Vector3::new(3.0, 6.0, 9.0));
     }
 }
 

@@ -50,7 +50,7 @@ pub mod solve;
 
 pub use desired::{
     Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedPath, ProjectedSegment,
-    Scalar, Spiral,
+    SampledPath, Scalar, Spiral,
 };
 pub use ellipsoid::{kinetic_energy, EnergyEllipsoid, Inertia};
 pub use equations::{suslov_multiplier, suslov_residual, suslov_rhs};

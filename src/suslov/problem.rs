@@ -144,6 +144,15 @@ pub enum ProblemError {
     /// `Ω_a = 0`: the ellipsoid degenerates.
     #[error("omega_a must be nonzero (it fixes the kinetic energy of the motion)")]
     ZeroOmegaA,
+    /// `⟨Ω_a, IΩ_a⟩` overflows or underflows `f64` (the ellipsoid is not representable).
+    #[error(
+        "omega_a's kinetic energy level <omega_a, I omega_a> = {level:e} is not a positive \
+         finite f64 (over- or underflow); rescale omega_a or the inertia"
+    )]
+    EnergyOutOfRange {
+        /// `⟨Ω_a, IΩ_a⟩` as computed.
+        level: f64,
+    },
     /// The time interval is empty or reversed.
     #[error("terminal time b = {b} must be greater than t0 = {t0}")]
     EmptyInterval {
@@ -165,7 +174,7 @@ impl SuslovProblem {
     /// The energy ellipsoid through `Ω_a`.
     pub fn ellipsoid(&self) -> EnergyEllipsoid {
         EnergyEllipsoid::through(self.inertia, &self.omega_a)
-            .expect("Ω_a validated nonzero and finite")
+            .expect("Ω_a validated: finite, nonzero, with a representable energy level")
     }
 
     /// Check every field; the first problem found is returned.
@@ -211,8 +220,12 @@ impl SuslovProblem {
                 });
             }
         }
-        if self.omega_a.norm() == 0.0 {
+        if self.omega_a.iter().all(|x| *x == 0.0) {
             return Err(ProblemError::ZeroOmegaA);
+        }
+        let level = self.inertia.apply(&self.omega_a).dot(&self.omega_a);
+        if !(level.is_finite() && level > 0.0) {
+            return Err(ProblemError::EnergyOutOfRange { level });
         }
         let b = self.terminal.initial();
         if b <= self.t0 {

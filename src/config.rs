@@ -1,0 +1,1260 @@
+//! Problem files: a user's own Suslov problem as TOML (`suslov solve problem.toml`).
+//!
+//! [`load`] reads a file, [`from_toml_str`] a string; both return a [`LoadedProblem`] (a
+//! validated [`SuslovProblem`], the [`SolveOptions`] and a case name) or a [`ConfigError`]
+//! that names the offending field by its TOML path (`cost.beta`, `boundary.omega_b`, …) and
+//! says how to fix it. Nothing in here panics on bad input.
+//!
+//! # Schema
+//!
+//! ```toml
+//! name = "my_problem"                # optional; default: the file name without extension
+//!
+//! [body]
+//! inertia = [1.0, 2.0, 3.0]          # principal moments I1, I2, I3: finite, > 0
+//!
+//! [boundary]
+//! t0 = 0.0                           # optional, default 0
+//! omega_a = [5.0, 0.0, 0.0]          # Ω(t0): finite, nonzero
+//! omega_b = "desired_end"            # Ω(b): "desired_end" or a vector on Ω_a's energy ellipsoid
+//! terminal_time = { free = true, guess = 10.0 }   # or { fixed = 12.0 } (> t0)
+//!
+//! [cost]                             # C = α/4(|ξ|²−1)² + β/2|ξ̇|² + γ/2|Ω−Ω_d|² + η/2|Ω̇|² + δ
+//! alpha = 1.0                        # > 0
+//! beta = 0.1                         # > 0
+//! gamma = 1.0                        # >= 0
+//! eta = 1.0                          # >= 0, optional, default 0
+//! delta = 0.2                        # >= 0, optional, default 0
+//!
+//! [desired]                          # Ω_d(t)
+//! kind = "paper-spiral"              # or "segment", "constant", "samples"
+//! c = 10.0                           # paper-spiral: optional, default 10
+//! width = 0.01                       # paper-spiral: optional, default 0.01 (> 0)
+//! b_d = 10.0                         # paper-spiral: optional, default 10
+//!
+//! [solver]                           # optional; defaults of SolveOptions
+//! tolerance = 1e-8
+//! continuation_tolerance = 1e-6
+//! beta_m = 1e-3                      # default 1e-2 · min(α, β, γ or 1)
+//! initial_intervals = 200
+//! max_nodes = 20000
+//! ```
+//!
+//! Desired paths (`[desired] kind = …`):
+//! - `"paper-spiral"`: the paper's `Ω_d = φ_∥(1 − s) + Ω_b s` (section 5.3) with parameters
+//!   `c`, `width`, `b_d` ([`PaperSpiral`]); its end point is `φ_∥(b_d)`.
+//! - `"segment"`: the radial projection onto the energy ellipsoid of the straight segment
+//!   from `from` (default `boundary.omega_a`) at `interval[0]` to `to` (default
+//!   `boundary.omega_b`) at `interval[1]` (default `[t0, terminal time]`)
+//!   ([`ProjectedSegment`]); its end point is `to`.
+//! - `"constant"`: `Ω_d = value`; its end point is `value`.
+//! - `"samples"`: `file = "omega_d.csv"` (relative to the problem file), rows
+//!   `t, omega1, omega2, omega3` ([`parse_samples`]), strictly increasing `t`, covering `t0`;
+//!   the natural cubic spline through them ([`SampledPath`], C², linear beyond the last
+//!   sample) projected radially onto the energy ellipsoid ([`Projected`]); its end point is
+//!   the projected last sample and its end time the last `t`.
+//!
+//! `omega_b = "desired_end"` takes `Ω_b` = the desired path's end point (which must lie on
+//! the energy ellipsoid). A free terminal time's `guess` defaults to the path's end time
+//! (`b_d`, or `interval[1]`) when it has one.
+//!
+//! Checks beyond the types: no NaN or infinity anywhere (TOML has `nan` and `inf` literals);
+//! `Ω_b` on `Ω_a`'s energy ellipsoid (relative energy mismatch ≤
+//! [`ENERGY_REL_TOL`], Suslov's equations conserve
+//! it); when `γ > 0`, the desired path starts at `Ω_a`: `|Ω_d(t0) − Ω_a| ≤`
+//! [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is not part of the cost and is
+//! not checked).
+
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+use nalgebra::Vector3;
+use serde::de::{self, Deserializer, SeqAccess, Visitor};
+use serde::Deserialize;
+
+use crate::suslov::desired::{
+    Constant, DesiredPath, PaperSpiral, Projected, ProjectedSegment, SampledPath,
+};
+use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
+use crate::suslov::problem::{
+    CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
+};
+use crate::suslov::solve::SolveOptions;
+
+/// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
+pub const DESIRED_START_REL_TOL: f64 = 1e-6;
+
+/// The parsed file, before any check beyond the TOML types. Every field is optional here so
+/// that a missing one is reported with its full path by [`ProblemFile::build`].
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ProblemFile {
+    /// Case name (labels the summary); default: the file stem.
+    pub name: Option<String>,
+    /// `[body]`.
+    pub body: Option<BodySection>,
+    /// `[boundary]`.
+    pub boundary: Option<BoundarySection>,
+    /// `[cost]`.
+    pub cost: Option<CostSection>,
+    /// `[desired]`.
+    pub desired: Option<DesiredSection>,
+    /// `[solver]`.
+    pub solver: Option<SolverSection>,
+}
+
+/// `[body]`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySection {
+    /// Principal moments of inertia.
+    pub inertia: Option<[f64; 3]>,
+}
+
+/// `[boundary]`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BoundarySection {
+    /// Initial time (default 0).
+    pub t0: Option<f64>,
+    /// `Ω(t0)`.
+    pub omega_a: Option<[f64; 3]>,
+    /// `Ω(b)`.
+    pub omega_b: Option<OmegaBSpec>,
+    /// Fixed or free terminal time.
+    pub terminal_time: Option<TerminalTimeSpec>,
+}
+
+/// `boundary.omega_b`: an explicit vector or `"desired_end"`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum OmegaBSpec {
+    /// The desired path's end point.
+    DesiredEnd,
+    /// An explicit vector.
+    Vector([f64; 3]),
+}
+
+impl<'de> Deserialize<'de> for OmegaBSpec {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = OmegaBSpec;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("an array of 3 numbers or the string \"desired_end\"")
+            }
+            fn visit_str<E: de::Error>(self, s: &str) -> Result<OmegaBSpec, E> {
+                if s == "desired_end" {
+                    Ok(OmegaBSpec::DesiredEnd)
+                } else {
+                    Err(E::invalid_value(de::Unexpected::Str(s), &self))
+                }
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<OmegaBSpec, A::Error> {
+                <[f64; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))
+                    .map(OmegaBSpec::Vector)
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+/// `boundary.terminal_time`: `{ fixed = b }` or `{ free = true, guess = b }`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TerminalTimeSpec {
+    /// `true` for a free terminal time.
+    pub free: Option<bool>,
+    /// Start value of a free terminal time.
+    pub guess: Option<f64>,
+    /// A fixed terminal time.
+    pub fixed: Option<f64>,
+}
+
+/// `[cost]`.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CostSection {
+    /// `α > 0`.
+    pub alpha: Option<f64>,
+    /// `β > 0`.
+    pub beta: Option<f64>,
+    /// `γ ≥ 0`.
+    pub gamma: Option<f64>,
+    /// `η ≥ 0` (default 0).
+    pub eta: Option<f64>,
+    /// `δ ≥ 0` (default 0).
+    pub delta: Option<f64>,
+}
+
+/// `[desired]`: `kind` and the parameters of that kind.
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DesiredSection {
+    /// `"paper-spiral"`, `"segment"`, `"constant"` or `"samples"`.
+    pub kind: Option<String>,
+    /// paper-spiral: spiral offset (default 10).
+    pub c: Option<f64>,
+    /// paper-spiral: sigmoid width (default 0.01).
+    pub width: Option<f64>,
+    /// paper-spiral: switching time (default 10).
+    pub b_d: Option<f64>,
+    /// constant: the value.
+    pub value: Option<[f64; 3]>,
+    /// segment: start point (default `boundary.omega_a`).
+    pub from: Option<[f64; 3]>,
+    /// segment: end point (default `boundary.omega_b`).
+    pub to: Option<[f64; 3]>,
+    /// segment: `[start time, end time]` (default `[t0, terminal time]`).
+    pub interval: Option<[f64; 2]>,
+    /// samples: the CSV file (relative to the problem file).
+    pub file: Option<String>,
+}
+
+/// `[solver]`: every key optional, defaults of [`SolveOptions`].
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SolverSection {
+    /// Final BVP tolerance.
+    pub tolerance: Option<f64>,
+    /// BVP tolerance during continuation.
+    pub continuation_tolerance: Option<f64>,
+    /// `β_m` of the analytic start.
+    pub beta_m: Option<f64>,
+    /// Intervals of the initial uniform mesh.
+    pub initial_intervals: Option<usize>,
+    /// Node cap of every BVP solve.
+    pub max_nodes: Option<usize>,
+}
+
+/// A problem file turned into something to solve.
+#[derive(Debug, Clone)]
+pub struct LoadedProblem {
+    /// Case name.
+    pub name: String,
+    /// The problem (validated).
+    pub problem: SuslovProblem,
+    /// Solver options.
+    pub options: SolveOptions,
+}
+
+/// What is wrong with a problem file. Every variant but [`ConfigError::Read`] names a field
+/// ([`ConfigError::field`]) by its TOML path.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    /// The file could not be read.
+    #[error("cannot read {}: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// An error in a file (wraps the others with the file name).
+    #[error("{}: {source}", path.display())]
+    InFile {
+        /// The file.
+        path: PathBuf,
+        /// The error.
+        source: Box<ConfigError>,
+    },
+    /// TOML syntax, unknown key or wrong type (the `toml` message, with line and column).
+    #[error("{}{message}", field.as_ref().map(|f| format!("in `{f}`: ")).unwrap_or_default())]
+    Toml {
+        /// The TOML path at the error's position, when it could be located.
+        field: Option<String>,
+        /// The parser's message.
+        message: String,
+    },
+    /// A required key is missing.
+    #[error("`{field}` is missing: {fix}")]
+    Missing {
+        /// The key.
+        field: String,
+        /// What to add.
+        fix: String,
+    },
+    /// NaN or infinity.
+    #[error(
+        "`{field}` = {value} is not a finite number (TOML accepts nan and inf, a problem \
+         does not): give a finite value"
+    )]
+    NotFinite {
+        /// The key.
+        field: String,
+        /// The value.
+        value: f64,
+    },
+    /// A value out of its range.
+    #[error("`{field}` = {value}: {requirement}")]
+    OutOfRange {
+        /// The key.
+        field: String,
+        /// The value, formatted.
+        value: String,
+        /// What is required, why, and the fix.
+        requirement: String,
+    },
+    /// `α` or `β` not positive: the optimal control problem is singular.
+    #[error(
+        "`{field}` = {value} makes the problem singular: {why}; give a value > 0 (e.g. {example})"
+    )]
+    Singular {
+        /// The key.
+        field: String,
+        /// The value.
+        value: f64,
+        /// Why it is singular.
+        why: &'static str,
+        /// A suggested value.
+        example: &'static str,
+    },
+    /// A vector that must be nonzero is zero.
+    #[error("`{field}` = [0, 0, 0]: {why}; give a nonzero vector")]
+    ZeroVector {
+        /// The key.
+        field: String,
+        /// What the vector is needed for.
+        why: &'static str,
+    },
+    /// A vector off `Ω_a`'s energy ellipsoid.
+    #[error(
+        "`{field}` = {value:?} is off omega_a's energy ellipsoid by {mismatch:.3e} (relative \
+         kinetic energy; allowed {ENERGY_REL_TOL:e}): Suslov's equations conserve the kinetic \
+         energy, so no motion from omega_a reaches it. Its radial projection onto the \
+         ellipsoid is {projection:?}: use that (or change omega_a)"
+    )]
+    OffEllipsoid {
+        /// The key.
+        field: String,
+        /// The value.
+        value: [f64; 3],
+        /// Relative energy mismatch.
+        mismatch: f64,
+        /// The radial projection onto the ellipsoid.
+        projection: [f64; 3],
+    },
+    /// The desired path does not start at `Ω_a`.
+    #[error(
+        "the desired path ([desired] kind = \"{kind}\") starts at Omega_d(t0) = {start:?}, but \
+         `boundary.omega_a` = {omega_a:?}: they differ by {distance:.3e} ({relative:.3e} \
+         relative to |omega_a|, allowed {DESIRED_START_REL_TOL:e}). Make the desired path \
+         start at omega_a ({hint}) or set omega_a = Omega_d(t0)"
+    )]
+    DesiredStart {
+        /// The desired path's kind.
+        kind: String,
+        /// `Ω_d(t0)`.
+        start: [f64; 3],
+        /// `Ω_a`.
+        omega_a: [f64; 3],
+        /// `|Ω_d(t0) − Ω_a|`.
+        distance: f64,
+        /// `distance / |Ω_a|`.
+        relative: f64,
+        /// Which keys to change for this kind.
+        hint: &'static str,
+    },
+    /// The terminal time is not after `t0`, or both/neither of fixed and free are given.
+    #[error("`{field}`: {message}")]
+    TerminalTime {
+        /// The key.
+        field: String,
+        /// What is wrong and the fix.
+        message: String,
+    },
+    /// Any other invalid value or combination (names the key and the fix).
+    #[error("`{field}`: {message}")]
+    Invalid {
+        /// The key.
+        field: String,
+        /// What is wrong and the fix.
+        message: String,
+    },
+}
+
+impl ConfigError {
+    /// The TOML path of the offending field, if the error is about one.
+    pub fn field(&self) -> Option<&str> {
+        match self {
+            ConfigError::Read { .. } => None,
+            ConfigError::InFile { source, .. } => source.field(),
+            ConfigError::Toml { field, .. } => field.as_deref(),
+            ConfigError::Missing { field, .. }
+            | ConfigError::NotFinite { field, .. }
+            | ConfigError::OutOfRange { field, .. }
+            | ConfigError::Singular { field, .. }
+            | ConfigError::ZeroVector { field, .. }
+            | ConfigError::OffEllipsoid { field, .. }
+            | ConfigError::TerminalTime { field, .. }
+            | ConfigError::Invalid { field, .. } => Some(field),
+            ConfigError::DesiredStart { .. } => Some("desired"),
+        }
+    }
+}
+
+/// Read and check a problem file; errors carry the file name.
+pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
+    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let default_name = path
+        .file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "problem".to_string());
+    let base = path.parent().unwrap_or(Path::new(""));
+    parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
+        path: path.to_path_buf(),
+        source: Box::new(e),
+    })
+}
+
+/// Check a problem given as TOML text (case name default `"problem"`; a samples file is
+/// looked up relative to the current directory).
+pub fn from_toml_str(text: &str) -> Result<LoadedProblem, ConfigError> {
+    parse(text, "problem", Path::new(""))
+}
+
+fn parse(text: &str, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
+    let file: ProblemFile = toml::from_str(text).map_err(|e| ConfigError::Toml {
+        field: e.span().and_then(|span| field_at(text, span.start)),
+        message: e.to_string().trim_end().to_string(),
+    })?;
+    file.build(default_name, base_dir)
+}
+
+/// The TOML path (table header and keys) at byte offset `pos` of `src`, best effort: the
+/// nearest `[table]` header above and the keys (also inside inline tables) on `pos`'s line.
+fn field_at(src: &str, pos: usize) -> Option<String> {
+    let pos = pos.min(src.len());
+    let pos = (0..=pos).rev().find(|&p| src.is_char_boundary(p))?;
+    let line_start = src[..pos].rfind('\n').map_or(0, |i| i + 1);
+    let line_end = src[pos..].find('\n').map_or(src.len(), |i| pos + i);
+    let line = &src[line_start..line_end];
+    let header_of = |l: &str| {
+        let l = l.trim();
+        l.starts_with('[').then(|| {
+            let end = l.find(']').unwrap_or(l.len());
+            l[..end].trim_start_matches('[').trim().to_string()
+        })
+    };
+    if let Some(h) = header_of(line) {
+        return (!h.is_empty()).then_some(h);
+    }
+    let header = src[..line_start]
+        .lines()
+        .rev()
+        .find_map(header_of)
+        .unwrap_or_default();
+    // Keys on the line before pos, by inline-table depth.
+    let prefix = &src[line_start..pos];
+    let mut keys: Vec<String> = Vec::new();
+    let mut depth = 0usize;
+    let mut token_start = 0usize;
+    let mut in_string = false;
+    for (i, ch) in prefix.char_indices() {
+        match ch {
+            '"' | '\'' => in_string = !in_string,
+            _ if in_string => {}
+            '{' => {
+                depth += 1;
+                token_start = i + 1;
+            }
+            '}' => depth = depth.saturating_sub(1),
+            ',' | '[' => token_start = i + 1,
+            '=' => {
+                let key = prefix[token_start..i].trim().trim_matches(['"', '\'']);
+                keys.truncate(depth);
+                keys.push(key.to_string());
+            }
+            _ => {}
+        }
+    }
+    keys.truncate(depth + 1);
+    if keys.len() <= depth {
+        // pos is at a key (e.g. an unknown one): take it.
+        let rest = &line[pos - line_start..];
+        let key: String = rest
+            .chars()
+            .take_while(|c| !c.is_whitespace() && *c != '=' && *c != ',' && *c != '}')
+            .collect();
+        let key = key.trim_matches(['"', '\'']).to_string();
+        if !key.is_empty() {
+            keys.push(key);
+        }
+    }
+    let mut parts: Vec<String> = Vec::new();
+    if !header.is_empty() {
+        parts.push(header);
+    }
+    parts.extend(keys.into_iter().filter(|k| !k.is_empty()));
+    (!parts.is_empty()).then(|| parts.join("."))
+}
+
+/// [`ConfigError::OffEllipsoid`] unless `v` is on `e` (relative energy within
+/// [`ENERGY_REL_TOL`]).
+fn on_ellipsoid(field: &str, e: &EnergyEllipsoid, v: &Vector3<f64>) -> Result<(), ConfigError> {
+    let mismatch = e.relative_mismatch(v);
+    if mismatch.abs() <= ENERGY_REL_TOL {
+        return Ok(());
+    }
+    let projection = e
+        .project(v)
+        .map(|p| [p[0], p[1], p[2]])
+        .unwrap_or([f64::NAN; 3]);
+    Err(ConfigError::OffEllipsoid {
+        field: field.to_string(),
+        value: [v[0], v[1], v[2]],
+        mismatch,
+        projection,
+    })
+}
+
+fn missing(field: &str, fix: impl Into<String>) -> ConfigError {
+    ConfigError::Missing {
+        field: field.to_string(),
+        fix: fix.into(),
+    }
+}
+
+fn finite(field: &str, value: f64) -> Result<f64, ConfigError> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(ConfigError::NotFinite {
+            field: field.to_string(),
+            value,
+        })
+    }
+}
+
+fn finite3(field: &str, v: [f64; 3]) -> Result<Vector3<f64>, ConfigError> {
+    for (i, x) in v.iter().enumerate() {
+        finite(&format!("{field}[{i}]"), *x)?;
+    }
+    Ok(Vector3::from(v))
+}
+
+fn positive(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> {
+    finite(field, value)?;
+    if value > 0.0 {
+        Ok(value)
+    } else {
+        Err(ConfigError::OutOfRange {
+            field: field.to_string(),
+            value: value.to_string(),
+            requirement: format!("must be > 0 ({why})"),
+        })
+    }
+}
+
+fn non_negative(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> {
+    finite(field, value)?;
+    if value >= 0.0 {
+        Ok(value)
+    } else {
+        Err(ConfigError::OutOfRange {
+            field: field.to_string(),
+            value: value.to_string(),
+            requirement: format!("must be >= 0 ({why}); use 0 to switch the term off"),
+        })
+    }
+}
+
+/// Keys of `[desired]` that a kind does not use.
+fn reject_unused(d: &DesiredSection, kind: &str, allowed: &[&str]) -> Result<(), ConfigError> {
+    let present = [
+        ("c", d.c.is_some()),
+        ("width", d.width.is_some()),
+        ("b_d", d.b_d.is_some()),
+        ("value", d.value.is_some()),
+        ("from", d.from.is_some()),
+        ("to", d.to.is_some()),
+        ("interval", d.interval.is_some()),
+        ("file", d.file.is_some()),
+    ];
+    for (key, is_set) in present {
+        if is_set && !allowed.contains(&key) {
+            return Err(ConfigError::Invalid {
+                field: format!("desired.{key}"),
+                message: format!(
+                    "not a parameter of kind = \"{kind}\" (its keys: {}); remove it or change \
+                     the kind",
+                    if allowed.is_empty() {
+                        "none".to_string()
+                    } else {
+                        allowed.join(", ")
+                    }
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A built desired path with what the rest of the file needs from it.
+struct Desired {
+    kind: &'static str,
+    path: Arc<dyn DesiredPath + Send + Sync>,
+    /// The path's end point (for `omega_b = "desired_end"`).
+    end_point: Vector3<f64>,
+    /// Which keys move its start (for the error message).
+    start_hint: &'static str,
+    /// The path's natural end time (default start value of a free terminal time).
+    end_time: Option<f64>,
+}
+
+/// Terminal time as given, before defaults from the desired path.
+enum Terminal {
+    Fixed(f64),
+    Free(Option<f64>),
+}
+
+const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"";
+
+/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; blank lines, `#` comments and
+/// a first line that is not numeric (a header) are skipped. Errors name the line.
+pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
+    let mut times = Vec::new();
+    let mut values = Vec::new();
+    let mut first_content = true;
+    for (i, raw) in text.lines().enumerate() {
+        let line = raw.split('#').next().unwrap_or("").trim();
+        if line.is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
+        let numbers: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let header = std::mem::replace(&mut first_content, false);
+        let numbers = match numbers {
+            Ok(n) => n,
+            Err(_) if header => continue,
+            Err(e) => return Err(format!("line {}: {e} in {line:?}", i + 1)),
+        };
+        if numbers.len() != 4 {
+            return Err(format!(
+                "line {}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {}",
+                i + 1,
+                numbers.len()
+            ));
+        }
+        if let Some(x) = numbers.iter().find(|x| !x.is_finite()) {
+            return Err(format!("line {}: {x} is not a finite number", i + 1));
+        }
+        if numbers[1..].iter().all(|x| *x == 0.0) {
+            return Err(format!(
+                "line {}: Omega_d = 0 cannot be projected onto the energy ellipsoid",
+                i + 1
+            ));
+        }
+        if let Some(&prev) = times.last() {
+            if numbers[0] <= prev {
+                return Err(format!(
+                    "line {}: t = {} does not increase (previous t = {prev})",
+                    i + 1,
+                    numbers[0]
+                ));
+            }
+        }
+        times.push(numbers[0]);
+        values.push([numbers[1], numbers[2], numbers[3]]);
+    }
+    if times.len() < 2 {
+        return Err(format!("needs at least 2 samples, found {}", times.len()));
+    }
+    Ok((times, values))
+}
+
+impl ProblemFile {
+    /// Check every field and build the problem; `default_name` is used without `name`, and
+    /// a relative `desired.file` is looked up in `base_dir`.
+    pub fn build(&self, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
+        let name = match &self.name {
+            Some(n) if n.trim().is_empty() => {
+                return Err(ConfigError::Invalid {
+                    field: "name".into(),
+                    message: "is empty; give a case name or remove the key".into(),
+                })
+            }
+            Some(n) => n.clone(),
+            None => default_name.to_string(),
+        };
+        // [body]
+        let body = self.body.as_ref().ok_or_else(|| {
+            missing(
+                "body",
+                "add a [body] table with inertia = [I1, I2, I3] (principal moments, > 0)",
+            )
+        })?;
+        let inertia = body.inertia.ok_or_else(|| {
+            missing(
+                "body.inertia",
+                "add inertia = [I1, I2, I3] under [body] (principal moments, > 0)",
+            )
+        })?;
+        for (i, m) in inertia.iter().enumerate() {
+            positive(
+                &format!("body.inertia[{i}]"),
+                *m,
+                "a principal moment of inertia of a rigid body is positive",
+            )?;
+        }
+        let inertia = Inertia::new(inertia).map_err(|e| ConfigError::Invalid {
+            field: "body.inertia".into(),
+            message: e.to_string(),
+        })?;
+
+        // [boundary]
+        let boundary = self.boundary.as_ref().ok_or_else(|| {
+            missing(
+                "boundary",
+                "add a [boundary] table with omega_a, omega_b and terminal_time",
+            )
+        })?;
+        let t0 = finite("boundary.t0", boundary.t0.unwrap_or(0.0))?;
+        let omega_a = finite3(
+            "boundary.omega_a",
+            boundary.omega_a.ok_or_else(|| {
+                missing(
+                    "boundary.omega_a",
+                    "add omega_a = [x, y, z] under [boundary] (the angular velocity at t0)",
+                )
+            })?,
+        )?;
+        if omega_a.iter().all(|x| *x == 0.0) {
+            return Err(ConfigError::ZeroVector {
+                field: "boundary.omega_a".into(),
+                why: "omega_a fixes the kinetic energy, i.e. the ellipsoid every trajectory \
+                      stays on, and the start direction of the desired paths",
+            });
+        }
+        let ellipsoid =
+            EnergyEllipsoid::through(inertia, &omega_a).map_err(|_| ConfigError::Invalid {
+                field: "boundary.omega_a".into(),
+                message: format!(
+                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a positive \
+                     finite number in f64 (over- or underflow); rescale omega_a or \
+                     body.inertia",
+                    inertia.apply(&omega_a).dot(&omega_a)
+                ),
+            })?;
+        let tt = boundary.terminal_time.as_ref().ok_or_else(|| {
+            missing(
+                "boundary.terminal_time",
+                "add terminal_time = { fixed = 10.0 } or terminal_time = { free = true, \
+                 guess = 10.0 } under [boundary]",
+            )
+        })?;
+        let terminal = match (tt.free, tt.fixed, tt.guess) {
+            (Some(true), Some(_), _) | (None, Some(_), Some(_)) => {
+                return Err(ConfigError::TerminalTime {
+                    field: "boundary.terminal_time".into(),
+                    message: "give either { fixed = b } or { free = true, guess = b }, not both"
+                        .into(),
+                })
+            }
+            (Some(false) | None, Some(b), None) => {
+                Terminal::Fixed(finite("boundary.terminal_time.fixed", b)?)
+            }
+            (Some(true), None, guess) => Terminal::Free(
+                guess
+                    .map(|g| finite("boundary.terminal_time.guess", g))
+                    .transpose()?,
+            ),
+            (Some(false), None, _) => {
+                return Err(ConfigError::TerminalTime {
+                    field: "boundary.terminal_time.fixed".into(),
+                    message: "free = false needs the fixed terminal time: write \
+                              { fixed = b } (b > t0)"
+                        .into(),
+                })
+            }
+            (Some(false), Some(_), Some(_)) => {
+                return Err(ConfigError::TerminalTime {
+                    field: "boundary.terminal_time.guess".into(),
+                    message: "a guess is only used with free = true; remove it".into(),
+                })
+            }
+            (None, None, _) => {
+                return Err(ConfigError::TerminalTime {
+                    field: "boundary.terminal_time".into(),
+                    message: "say whether b is fixed or free: { fixed = b } or \
+                              { free = true, guess = b }"
+                        .into(),
+                })
+            }
+        };
+        if let Terminal::Fixed(b) | Terminal::Free(Some(b)) = terminal {
+            if b <= t0 {
+                let key = if matches!(terminal, Terminal::Fixed(_)) {
+                    "boundary.terminal_time.fixed"
+                } else {
+                    "boundary.terminal_time.guess"
+                };
+                return Err(ConfigError::TerminalTime {
+                    field: key.into(),
+                    message: format!(
+                        "terminal time {b} must be greater than boundary.t0 = {t0}; \
+                         give a later time"
+                    ),
+                });
+            }
+        }
+
+        // [cost]
+        let cost = self.cost.as_ref().ok_or_else(|| {
+            missing(
+                "cost",
+                "add a [cost] table with alpha, beta, gamma (and optionally eta, delta)",
+            )
+        })?;
+        let weight = |key: &str, v: Option<f64>, example: &str| {
+            v.ok_or_else(|| {
+                missing(
+                    &format!("cost.{key}"),
+                    format!("add {key} = <number> under [cost], e.g. {key} = {example}"),
+                )
+            })
+        };
+        let alpha = finite("cost.alpha", weight("alpha", cost.alpha, "1.0")?)?;
+        let beta = finite("cost.beta", weight("beta", cost.beta, "0.1")?)?;
+        let gamma = weight("gamma", cost.gamma, "1.0")?;
+        if alpha <= 0.0 {
+            return Err(ConfigError::Singular {
+                field: "cost.alpha".into(),
+                value: alpha,
+                why: "the constraint <Omega, xi> = 0 does not fix the length of xi, only the \
+                      term alpha/4 (|xi|^2 - 1)^2 does; without it xi -> c xi is a symmetry \
+                      and the optimality system has no unique solution",
+                example: "alpha = 1.0",
+            });
+        }
+        if beta <= 0.0 {
+            return Err(ConfigError::Singular {
+                field: "cost.beta".into(),
+                value: beta,
+                why: "beta/2 |xi'|^2 is the only term with the control's derivative; with \
+                      beta = 0 the Euler-Lagrange equations do not determine xi'' (paper \
+                      section 4.4, a singular optimal control problem)",
+                example: "beta = 0.1",
+            });
+        }
+        let gamma = non_negative(
+            "cost.gamma",
+            gamma,
+            "a negative weight would reward leaving the desired path",
+        )?;
+        let eta = non_negative(
+            "cost.eta",
+            cost.eta.unwrap_or(0.0),
+            "a negative weight would reward large |Omega'|",
+        )?;
+        let delta = non_negative(
+            "cost.delta",
+            cost.delta.unwrap_or(0.0),
+            "a negative time weight would reward long motions",
+        )?;
+
+        // [desired]
+        let desired_section = self.desired.as_ref().ok_or_else(|| {
+            missing(
+                "desired",
+                format!("add a [desired] table with kind = {KINDS}"),
+            )
+        })?;
+        let kind = desired_section.kind.as_deref().ok_or_else(|| {
+            missing(
+                "desired.kind",
+                format!("add kind = {KINDS} under [desired]"),
+            )
+        })?;
+        let desired = self.build_desired(
+            base_dir,
+            kind,
+            desired_section,
+            inertia,
+            &ellipsoid,
+            omega_a,
+            t0,
+            &terminal,
+        )?;
+
+        // Terminal time, with the desired path's default guess.
+        let terminal = match terminal {
+            Terminal::Fixed(b) => TerminalTime::Fixed(b),
+            Terminal::Free(Some(g)) => TerminalTime::Free { guess: g },
+            Terminal::Free(None) => {
+                let guess = desired.end_time.ok_or_else(|| {
+                    missing(
+                        "boundary.terminal_time.guess",
+                        format!(
+                            "a free terminal time needs a start value with kind = \
+                             \"{kind}\": write terminal_time = {{ free = true, guess = b }}"
+                        ),
+                    )
+                })?;
+                if guess <= t0 {
+                    return Err(ConfigError::TerminalTime {
+                        field: "boundary.terminal_time.guess".into(),
+                        message: format!(
+                            "the default guess {guess} (the desired path's end time) is not \
+                             after boundary.t0 = {t0}; give guess = b > t0"
+                        ),
+                    });
+                }
+                TerminalTime::Free { guess }
+            }
+        };
+
+        // Omega_b.
+        let omega_b_spec = boundary.omega_b.ok_or_else(|| {
+            missing(
+                "boundary.omega_b",
+                "add omega_b = [x, y, z] (on omega_a's energy ellipsoid) or omega_b = \
+                 \"desired_end\" under [boundary]",
+            )
+        })?;
+        let omega_b = match omega_b_spec {
+            OmegaBSpec::DesiredEnd => desired.end_point,
+            OmegaBSpec::Vector(v) => finite3("boundary.omega_b", v)?,
+        };
+        let field = match omega_b_spec {
+            OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
+            OmegaBSpec::Vector(_) => "boundary.omega_b",
+        };
+        on_ellipsoid(field, &ellipsoid, &omega_b)?;
+
+        // The desired path starts at Omega_a.
+        if gamma > 0.0 {
+            let start = desired.path.value(t0);
+            let distance = (start - omega_a).norm();
+            let relative = distance / omega_a.norm();
+            if relative.is_nan() || relative > DESIRED_START_REL_TOL {
+                return Err(ConfigError::DesiredStart {
+                    kind: desired.kind.to_string(),
+                    start: start.into(),
+                    omega_a: omega_a.into(),
+                    distance,
+                    relative,
+                    hint: desired.start_hint,
+                });
+            }
+        }
+
+        let options = self.solve_options()?;
+        let problem = SuslovProblem {
+            inertia,
+            weights: CostWeights {
+                alpha,
+                beta,
+                gamma,
+                eta,
+                delta,
+            },
+            t0,
+            omega_a,
+            omega_b,
+            terminal,
+            desired: desired.path,
+        };
+        problem.validate().map_err(problem_error)?;
+        Ok(LoadedProblem {
+            name,
+            problem,
+            options,
+        })
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn build_desired(
+        &self,
+        base_dir: &Path,
+        kind: &str,
+        d: &DesiredSection,
+        inertia: Inertia,
+        ellipsoid: &EnergyEllipsoid,
+        omega_a: Vector3<f64>,
+        t0: f64,
+        terminal: &Terminal,
+    ) -> Result<Desired, ConfigError> {
+        match kind {
+            "paper-spiral" => {
+                reject_unused(d, kind, &["c", "width", "b_d"])?;
+                let c = finite("desired.c", d.c.unwrap_or(10.0))?;
+                let width = positive(
+                    "desired.width",
+                    d.width.unwrap_or(0.01),
+                    "the time scale of the sigmoid switching to the end point",
+                )?;
+                let b_d = finite("desired.b_d", d.b_d.unwrap_or(10.0))?;
+                if b_d <= t0 {
+                    return Err(ConfigError::OutOfRange {
+                        field: "desired.b_d".into(),
+                        value: b_d.to_string(),
+                        requirement: format!(
+                            "the switching time must be after boundary.t0 = {t0}; give a \
+                             later b_d"
+                        ),
+                    });
+                }
+                let spiral = PaperSpiral::new(c, width, b_d, inertia, omega_a).map_err(|e| {
+                    ConfigError::Invalid {
+                        field: "desired".into(),
+                        message: format!("{e}; change c or b_d"),
+                    }
+                })?;
+                let end_point = spiral.omega_b();
+                Ok(Desired {
+                    kind: "paper-spiral",
+                    path: Arc::new(spiral),
+                    end_point,
+                    start_hint: "the spiral starts on the ray of [c, t0 cos t0, t0 sin t0]; \
+                                 with t0 = 0 any omega_a = [x, 0, 0] with x > 0 and c > 0",
+                    end_time: Some(b_d),
+                })
+            }
+            "segment" => {
+                reject_unused(d, kind, &["from", "to", "interval"])?;
+                let from = match d.from {
+                    Some(v) => finite3("desired.from", v)?,
+                    None => omega_a,
+                };
+                let to = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
+                    (Some(v), _) => finite3("desired.to", v)?,
+                    (None, Some(OmegaBSpec::Vector(v))) => finite3("boundary.omega_b", v)?,
+                    (None, _) => {
+                        return Err(missing(
+                            "desired.to",
+                            "the segment's end point defaults to boundary.omega_b, which is \
+                             \"desired_end\" (or missing) here: add to = [x, y, z] under \
+                             [desired]",
+                        ))
+                    }
+                };
+                let (a, b) = match (d.interval, terminal) {
+                    (Some([a, b]), _) => (
+                        finite("desired.interval[0]", a)?,
+                        finite("desired.interval[1]", b)?,
+                    ),
+                    (None, Terminal::Fixed(b) | Terminal::Free(Some(b))) => (t0, *b),
+                    (None, Terminal::Free(None)) => {
+                        return Err(missing(
+                            "desired.interval",
+                            "give interval = [t_start, t_end] under [desired] or a guess in \
+                             boundary.terminal_time",
+                        ))
+                    }
+                };
+                if a >= b {
+                    return Err(ConfigError::OutOfRange {
+                        field: "desired.interval".into(),
+                        value: format!("[{a}, {b}]"),
+                        requirement: "needs start < end; give interval = [t_start, t_end]".into(),
+                    });
+                }
+                for (key, v) in [("desired.from", from), ("desired.to", to)] {
+                    if v.iter().all(|x| *x == 0.0) {
+                        return Err(ConfigError::ZeroVector {
+                            field: key.into(),
+                            why: "the segment's end points are projected radially onto the \
+                                  energy ellipsoid, which is undefined at 0",
+                        });
+                    }
+                    on_ellipsoid(key, ellipsoid, &v)?;
+                }
+                // ProjectedSegment is built through `from`'s ellipsoid, equal to Ω_a's.
+                let segment = ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| {
+                    ConfigError::Invalid {
+                        field: "desired.to".into(),
+                        message: format!("{e}; choose end points that are not opposite"),
+                    }
+                })?;
+                Ok(Desired {
+                    kind: "segment",
+                    path: Arc::new(segment),
+                    end_point: to,
+                    start_hint: "set desired.from = omega_a (the default) and \
+                                 desired.interval[0] = t0",
+                    end_time: Some(b),
+                })
+            }
+            "constant" => {
+                reject_unused(d, kind, &["value"])?;
+                let value = finite3(
+                    "desired.value",
+                    d.value.ok_or_else(|| {
+                        missing("desired.value", "add value = [x, y, z] under [desired]")
+                    })?,
+                )?;
+                Ok(Desired {
+                    kind: "constant",
+                    path: Arc::new(Constant(value)),
+                    end_point: value,
+                    start_hint: "value = omega_a; or set cost.gamma = 0, then Omega_d is not \
+                                 part of the cost",
+                    end_time: None,
+                })
+            }
+            "samples" => {
+                reject_unused(d, kind, &["file"])?;
+                let file = d.file.as_deref().ok_or_else(|| {
+                    missing(
+                        "desired.file",
+                        "add file = \"omega_d.csv\" under [desired] (columns t, omega1, \
+                         omega2, omega3; relative to the problem file)",
+                    )
+                })?;
+                let path = base_dir.join(file);
+                let bad = |message: String| ConfigError::Invalid {
+                    field: "desired.file".into(),
+                    message: format!("{}: {message}", path.display()),
+                };
+                let text = std::fs::read_to_string(&path)
+                    .map_err(|e| bad(format!("cannot read it ({e})")))?;
+                let (times, values) = parse_samples(&text).map_err(&bad)?;
+                let (first, last) = (times[0], times[times.len() - 1]);
+                if !(first <= t0 && t0 < last) {
+                    return Err(bad(format!(
+                        "the samples cover [{first}, {last}], which must contain \
+                         boundary.t0 = {t0} (and reach beyond it)"
+                    )));
+                }
+                let spline = SampledPath::new(&times, &values).map_err(|e| bad(e.to_string()))?;
+                let path = Projected::new(spline, *ellipsoid);
+                let end_point = path.value(last);
+                Ok(Desired {
+                    kind: "samples",
+                    path: Arc::new(path),
+                    end_point,
+                    start_hint: "the first sample, projected radially onto the energy \
+                                 ellipsoid, must be omega_a",
+                    end_time: Some(last),
+                })
+            }
+            other => Err(ConfigError::Invalid {
+                field: "desired.kind".into(),
+                message: format!("unknown kind \"{other}\"; use {KINDS}"),
+            }),
+        }
+    }
+
+    fn solve_options(&self) -> Result<SolveOptions, ConfigError> {
+        let mut o = SolveOptions::default();
+        let Some(s) = &self.solver else {
+            return Ok(o);
+        };
+        if let Some(v) = s.tolerance {
+            o.tol = positive("solver.tolerance", v, "the BVP error tolerance")?;
+        }
+        if let Some(v) = s.continuation_tolerance {
+            o.continuation_tol = positive(
+                "solver.continuation_tolerance",
+                v,
+                "the BVP error tolerance during continuation",
+            )?;
+        }
+        if let Some(v) = s.beta_m {
+            o.beta_m = Some(positive(
+                "solver.beta_m",
+                v,
+                "the small beta of the analytic start; beta = 0 is singular",
+            )?);
+        }
+        if let Some(n) = s.initial_intervals {
+            if n < 2 {
+                return Err(ConfigError::OutOfRange {
+                    field: "solver.initial_intervals".into(),
+                    value: n.to_string(),
+                    requirement: "must be >= 2 (intervals of the initial mesh); e.g. 200".into(),
+                });
+            }
+            o.initial_intervals = n;
+        }
+        if let Some(n) = s.max_nodes {
+            o.max_nodes = n;
+        }
+        if o.max_nodes <= o.initial_intervals {
+            return Err(ConfigError::OutOfRange {
+                field: "solver.max_nodes".into(),
+                value: o.max_nodes.to_string(),
+                requirement: format!(
+                    "must exceed solver.initial_intervals = {} (the initial mesh has that \
+                     many intervals plus one nodes); e.g. 20000",
+                    o.initial_intervals
+                ),
+            });
+        }
+        Ok(o)
+    }
+}
+
+/// A [`ProblemError`] from [`SuslovProblem::validate`] with the field's TOML path (the checks
+/// above catch these first; this is the safety net).
+fn problem_error(e: ProblemError) -> ConfigError {
+    let path = |field: &str| -> String {
+        let base = field.split('[').next().unwrap_or(field);
+        match base {
+            "alpha" | "beta" | "gamma" | "eta" | "delta" => format!("cost.{field}"),
+            "terminal_time" => "boundary.terminal_time".into(),
+            _ => format!("boundary.{field}"),
+        }
+    };
+    match e {
+        ProblemError::NotFinite { field, value } => ConfigError::NotFinite {
+            field: path(field),
+            value,
+        },
+        ProblemError::Weight {
+            field,
+            value,
+            requirement,
+        } => ConfigError::OutOfRange {
+            field: path(field),
+            value: value.to_string(),
+            requirement: requirement.to_string(),
+        },
+        ProblemError::OffEllipsoid {
+            omega_b,
+            mismatch,
+            projection,
+        } => ConfigError::OffEllipsoid {
+            field: "boundary.omega_b".into(),
+            value: omega_b,
+            mismatch,
+            projection,
+        },
+        ProblemError::ZeroOmegaA => ConfigError::ZeroVector {
+            field: "boundary.omega_a".into(),
+            why: "it fixes the kinetic energy of the motion",
+        },
+        ProblemError::EnergyOutOfRange { level } => ConfigError::Invalid {
+            field: "boundary.omega_a".into(),
+            message: format!(
+                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a positive \
+                 finite number in f64; rescale omega_a or body.inertia"
+            ),
+        },
+        ProblemError::EmptyInterval { t0, b } => ConfigError::TerminalTime {
+            field: "boundary.terminal_time".into(),
+            message: format!("terminal time {b} must be greater than boundary.t0 = {t0}"),
+        },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::field_at;
+
+    #[test]
+    fn field_paths_from_positions() {
+        let src = "name = \"x\"\n[cost]\nbeta = \"y\"\n[boundary]\nterminal_time = { fixd = 3 }\n";
+        let at = |needle: &str| field_at(src, src.find(needle).unwrap());
+        assert_eq!(at("\"y\"").as_deref(), Some("cost.beta"));
+        assert_eq!(at("fixd").as_deref(), Some("boundary.terminal_time.fixd"));
+        assert_eq!(at("3 }").as_deref(), Some("boundary.terminal_time.fixd"));
+        assert_eq!(at("[cost]").as_deref(), Some("cost"));
+        assert_eq!(at("\"x\"").as_deref(), Some("name"));
+        assert_eq!(at("beta").as_deref(), Some("cost.beta"));
+    }
+}
