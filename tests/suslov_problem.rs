@@ -138,3 +138,30 @@ fn the_paper_job_writes_complete_outputs() {
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
     std::fs::remove_dir_all(&dir).expect("clean up");
 }
+
+#[test]
+fn gamma_zero_starts_from_a_nominal_path_whatever_the_desired_path() {
+    // Paper section 5.2, first case: with gamma = 0 the homotopy tracks Omega_p (the projected
+    // segment) while gamma_c goes from 1 to 0, so Omega_d (here a constant that is not even
+    // admissible as a path to Omega_b) plays no role.
+    use std::sync::Arc;
+    use suslov::suslov::{Constant, EnergyEllipsoid};
+    let mut p = paper::fixed_time_problem(0.0, 5.0);
+    let e = EnergyEllipsoid::through(p.inertia, &p.omega_a).expect("ellipsoid");
+    p.omega_b = e.project(&Vector3::new(1.0, 2.0, 1.0)).expect("projection");
+    p.desired = Arc::new(Constant(p.omega_a));
+    p.weights.gamma = 0.0;
+    p.weights.delta = 0.0;
+    let sol = suslov::solve(&p, &Default::default(), &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(sol.start.case, 1);
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert_eq!(names, ["start", "gamma", "beta", "polish"]);
+    let y = sol.state(5.0);
+    assert!((Vector3::new(y[0], y[1], y[2]) - p.omega_b).norm() < 1e-8);
+    let d = suslov::suslov::diagnostics::diagnose(&sol);
+    assert!(
+        // kinetic energy T(a) = 12.5: a drift of 1e-8 relative to it
+        d.max_abs_constraint < 1e-9 && d.energy_drift < 1e-8 * 12.5,
+        "{d:?}"
+    );
+}

@@ -194,17 +194,20 @@ struct Homotopy<'p> {
     solution: Solution,
     start: StartChoice,
     stages: Vec<StageReport>,
+    /// The path the cost tracks: `Ω_p` during the γ stage of the paper's first case
+    /// (γ_c: 1 → 0 tracks `Ω_p`, paper section 5.2), `Ω_d` otherwise.
+    tracking: Arc<dyn DesiredPath + Send + Sync>,
 }
 
-impl<'p> Homotopy<'p> {
-    fn bvp_with(&self, params: [f64; 8], fixed_span: Option<f64>) -> SuslovBvp<'p> {
+impl Homotopy<'_> {
+    fn bvp_with(&self, params: [f64; 8], fixed_span: Option<f64>) -> SuslovBvp<'_> {
         SuslovBvp {
             params,
             omega_a: self.problem.omega_a.into(),
             omega_b: self.problem.omega_b.into(),
             t0: self.problem.t0,
             fixed_span,
-            desired: &*self.problem.desired,
+            desired: &*self.tracking,
         }
     }
 
@@ -472,13 +475,19 @@ pub fn solve(
         from: beta_m,
         to: beta_m,
     });
+    // Paper's first case (γ = 0): the start and the γ stage track Ω_p, not Ω_d.
+    let tracking = if start.case == 1 {
+        omega_p.clone()
+    } else {
+        problem.desired.clone()
+    };
     let start_bvp = SuslovBvp {
         params,
         omega_a: problem.omega_a.into(),
         omega_b: problem.omega_b.into(),
         t0: problem.t0,
         fixed_span: Some(t_p),
-        desired: &*problem.desired,
+        desired: &*tracking,
     };
     let first = bvp::solve(&start_bvp, &guess, &bvp_opts(options.continuation_tol))?;
     if !first.is_success() {
@@ -508,10 +517,14 @@ pub fn solve(
         solution: first,
         start,
         stages: vec![report],
+        tracking,
     };
 
     match h.start.case {
-        1 => h.stage("gamma", 5, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?,
+        1 => {
+            h.stage("gamma", 5, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?;
+            h.tracking = problem.desired.clone(); // γ = 0 from here on: Ω_d has no effect
+        }
         2 => {
             let gamma = w.gamma;
             h.stage("gamma", 5, 0.0, gamma, &move |l| l * gamma, &cont, events)?
