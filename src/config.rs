@@ -34,9 +34,9 @@
 //!
 //! [solver]                           # optional; defaults of SolveOptions
 //! tolerance = 1e-8
-//! continuation_tolerance = 1e-6
+//! continuation_tolerance = 1e-4
 //! beta_m = 1e-3                      # default 1e-2 · min(α, β, γ or 1)
-//! initial_intervals = 200
+//! initial_intervals = 100
 //! max_nodes = 20000
 //! ```
 //!

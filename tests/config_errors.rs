@@ -432,7 +432,7 @@ fn solver_options_are_checked() {
         &with_line("tolerance =", "max_nodes = 100"),
         "solver.max_nodes",
     );
-    assert_contains(&msg, &["must exceed solver.initial_intervals = 200"]);
+    assert_contains(&msg, &["must exceed solver.initial_intervals = 100"]);
     let (_, msg) = error(
         &with_line("tolerance =", "initial_intervals = -5"),
         "solver.initial_intervals",
