@@ -123,7 +123,11 @@ impl Reporter {
                 }
             }
             AppEvent::Solve(Event::StageStarted { name, from, to }) => {
-                let text = format!("  stage {name}: {from:.6} -> {to:.6}");
+                let text = if from == to {
+                    format!("  stage {name}")
+                } else {
+                    format!("  stage {name}: {from:.6} -> {to:.6}")
+                };
                 if let Some(bar) = &self.bar {
                     bar.set_message(text.trim().to_string());
                 }
@@ -148,6 +152,15 @@ impl Reporter {
                 }
                 if self.verbose {
                     self.line(text);
+                }
+            }
+            AppEvent::Solve(Event::Bvp {
+                stage,
+                lambda,
+                progress,
+            }) => {
+                if self.verbose {
+                    self.line(format!("      {stage} lambda = {lambda:.4}: {progress}"));
                 }
             }
             AppEvent::Solve(Event::StageFinished(r)) => {

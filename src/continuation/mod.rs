@@ -175,6 +175,32 @@ where
     P: BvpProblem,
     F: Fn(f64) -> P,
 {
+    natural_with_progress(
+        family,
+        lambda0,
+        lambda1,
+        start,
+        options,
+        on_step,
+        &mut |_, _| {},
+    )
+}
+
+/// [`natural`], also passing every Newton step and mesh pass of the corrector solves to
+/// `on_solve(lambda, progress)` (for logs and progress bars).
+pub fn natural_with_progress<P, F>(
+    family: F,
+    lambda0: f64,
+    lambda1: f64,
+    start: &Solution,
+    options: &Options,
+    on_step: &mut dyn FnMut(&StepRecord),
+    on_solve: &mut dyn FnMut(f64, &bvp::Progress),
+) -> Result<Outcome, bvp::BvpError>
+where
+    P: BvpProblem,
+    F: Fn(f64) -> P,
+{
     let range = (lambda1 - lambda0).abs();
     let dir = if lambda1 >= lambda0 { 1.0 } else { -1.0 };
     let max_step = options.max_step.unwrap_or(range).max(f64::MIN_POSITIVE);
@@ -209,12 +235,14 @@ where
             current.0 + dir * step
         };
         let problem = family(lambda);
-        let attempt = |secant: bool| -> Result<(StepRecord, Solution), bvp::BvpError> {
+        let mut attempt = |secant: bool| -> Result<(StepRecord, Solution), bvp::BvpError> {
             let guess = match (&previous, secant) {
                 (Some(prev), true) => predict_secant(prev, &current, lambda),
                 _ => Guess::from_solution(&current.1),
             };
-            let sol = bvp::solve(&problem, &guess, &options.bvp)?;
+            let sol = bvp::solve_with_progress(&problem, &guess, &options.bvp, &mut |p| {
+                on_solve(lambda, p)
+            })?;
             let record = StepRecord {
                 lambda,
                 accepted: sol.is_success(),

@@ -153,6 +153,16 @@ pub enum Event<'a> {
     },
     /// A stage finished.
     StageFinished(&'a StageReport),
+    /// A Newton step or mesh pass inside a BVP solve of a stage (at parameter `lambda` of
+    /// the stage's homotopy, 0 for single solves).
+    Bvp {
+        /// Stage name.
+        stage: &'static str,
+        /// Homotopy parameter of the solve.
+        lambda: f64,
+        /// The solver's report.
+        progress: &'a bvp::Progress,
+    },
 }
 
 /// Why [`solve`] failed.
@@ -254,13 +264,28 @@ impl Homotopy<'_> {
             p[index] = value(lambda);
             self.bvp_with(p, fixed_span)
         };
-        let outcome =
-            continuation::natural(family, 0.0, 1.0, &self.solution, opts, &mut |record| {
-                events(&Event::Step {
+        // Both callbacks report through `events`; a RefCell lets them share it.
+        let shared = std::cell::RefCell::new(&mut *events);
+        let outcome = continuation::natural_with_progress(
+            family,
+            0.0,
+            1.0,
+            &self.solution,
+            opts,
+            &mut |record| {
+                (shared.borrow_mut())(&Event::Step {
                     stage: name,
                     record,
                 })
-            })?;
+            },
+            &mut |lambda, progress| {
+                (shared.borrow_mut())(&Event::Bvp {
+                    stage: name,
+                    lambda,
+                    progress,
+                })
+            },
+        )?;
         self.params[index] = value(outcome.lambda);
         self.solution = outcome.solution.clone();
         if self.fixed_span.is_none() {
@@ -306,7 +331,13 @@ impl Homotopy<'_> {
             to: 0.0,
         });
         let problem = self.bvp_with(self.params, self.fixed_span);
-        let sol = bvp::solve(&problem, guess, options)?;
+        let sol = bvp::solve_with_progress(&problem, guess, options, &mut |progress| {
+            events(&Event::Bvp {
+                stage: name,
+                lambda: 0.0,
+                progress,
+            })
+        })?;
         let report = StageReport {
             name,
             from: 0.0,
@@ -489,7 +520,18 @@ pub fn solve(
         fixed_span: Some(t_p),
         desired: &*tracking,
     };
-    let first = bvp::solve(&start_bvp, &guess, &bvp_opts(options.continuation_tol))?;
+    let first = bvp::solve_with_progress(
+        &start_bvp,
+        &guess,
+        &bvp_opts(options.continuation_tol),
+        &mut |progress| {
+            events(&Event::Bvp {
+                stage: "start",
+                lambda: 0.0,
+                progress,
+            })
+        },
+    )?;
     if !first.is_success() {
         return Err(SolveError::Start(format!(
             "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
