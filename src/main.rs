@@ -159,8 +159,12 @@ impl Reporter {
                 lambda,
                 progress,
             }) => {
+                let text = format!("{stage} lambda = {lambda:.4}: {progress}");
+                if let Some(bar) = &self.bar {
+                    bar.set_message(text.clone());
+                }
                 if self.verbose {
-                    self.line(format!("      {stage} lambda = {lambda:.4}: {progress}"));
+                    self.line(format!("      {text}"));
                 }
             }
             AppEvent::Solve(Event::StageFinished(r)) => {
