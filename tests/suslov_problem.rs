@@ -165,3 +165,33 @@ fn gamma_zero_starts_from_a_nominal_path_whatever_the_desired_path() {
         "{d:?}"
     );
 }
+
+#[test]
+fn a_failing_stage_writes_a_marked_partial_result_and_says_where() {
+    // A node cap that the start and continuation stages fit in (tol 1e-4: up to ~200 nodes
+    // while adapting) but the
+    // final solve at 1e-8 does not (~280): the polish stage fails with MaxNodes.
+    let dir = std::env::temp_dir().join(format!("suslov-partial-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let options = suslov::SolveOptions {
+        max_nodes: 230,
+        ..Default::default()
+    };
+    let problem = paper::problem(0.01);
+    let summary = suslov::app::run_case("capped", &problem, &dir, &options, &mut |_| {})
+        .expect("outputs written");
+    assert!(
+        summary.status.starts_with("partial: stage 'polish'"),
+        "{}",
+        summary.status
+    );
+    assert!(summary.status.contains("MaxNodes"), "{}", summary.status);
+    // What it has: the last converged point (continuation tolerance) near the answer.
+    assert!((summary.terminal_time - 9.84).abs() < 0.01);
+    assert!(dir.join("trajectory.partial.csv").exists());
+    assert!(
+        !dir.join("trajectory.csv").exists(),
+        "a partial result must not look final"
+    );
+    std::fs::remove_dir_all(&dir).expect("clean up");
+}
