@@ -169,8 +169,8 @@ fn gamma_zero_starts_from_a_nominal_path_whatever_the_desired_path() {
 #[test]
 fn a_failing_stage_writes_a_marked_partial_result_and_says_where() {
     // A node cap that the start and continuation stages fit in (tol 1e-4: up to ~200 nodes
-    // while adapting) but the
-    // final solve at 1e-8 does not (~280): the polish stage fails with MaxNodes.
+    // while adapting) but the final solve at 1e-8 does not (~280): the polish stage fails
+    // with MaxNodes.
     let dir = std::env::temp_dir().join(format!("suslov-partial-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let options = suslov::SolveOptions {
