@@ -38,6 +38,7 @@
 //! beta_m = 1e-3                      # default 1e-2 · min(α, β, γ or 1)
 //! initial_intervals = 100
 //! max_nodes = 20000
+//! start = "auto"                     # or "desired", "desired-gamma-from-zero", "segment"
 //! ```
 //!
 //! Desired paths (`[desired] kind = …`):
@@ -80,7 +81,7 @@ use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
 use crate::suslov::problem::{
     CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
 };
-use crate::suslov::solve::SolveOptions;
+use crate::suslov::solve::{SolveOptions, StartStrategy};
 
 /// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
 pub const DESIRED_START_REL_TOL: f64 = 1e-6;
@@ -225,6 +226,8 @@ pub struct SolverSection {
     pub initial_intervals: Option<usize>,
     /// Node cap of every BVP solve.
     pub max_nodes: Option<usize>,
+    /// Start case override: "auto" (default), "desired", "desired-gamma-from-zero", "segment".
+    pub start: Option<String>,
 }
 
 /// A problem file turned into something to solve.
@@ -1173,6 +1176,23 @@ impl ProblemFile {
         }
         if let Some(n) = s.max_nodes {
             o.max_nodes = n;
+        }
+        if let Some(start) = &s.start {
+            o.start = match start.as_str() {
+                "auto" => StartStrategy::Auto,
+                "desired" => StartStrategy::Desired,
+                "desired-gamma-from-zero" => StartStrategy::DesiredGammaFromZero,
+                "segment" => StartStrategy::Segment,
+                other => {
+                    return Err(ConfigError::Invalid {
+                        field: "solver.start".into(),
+                        message: format!(
+                            "unknown start \"{other}\"; use \"auto\" (default), \"desired\", \
+                             \"desired-gamma-from-zero\" or \"segment\""
+                        ),
+                    })
+                }
+            };
         }
         if o.max_nodes <= o.initial_intervals {
             return Err(ConfigError::OutOfRange {

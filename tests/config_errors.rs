@@ -633,3 +633,30 @@ fn samples_files_are_checked_line_by_line() {
     assert_eq!(e.field(), Some("desired"), "{e}");
     assert_contains(&e.to_string(), &["kind = \"samples\"", "first sample"]);
 }
+
+#[test]
+fn the_start_override_is_parsed_and_checked() {
+    let base = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml"),
+    )
+    .expect("example");
+    let with_start = |value: &str| {
+        if base.contains("[solver]") {
+            base.replace("[solver]", &format!("[solver]\nstart = {value}"))
+        } else {
+            format!("{base}\n[solver]\nstart = {value}\n")
+        }
+    };
+    let ok = suslov::config::from_toml_str(&with_start("\"segment\"")).expect("valid start");
+    assert_eq!(
+        ok.options.start,
+        suslov::suslov::solve::StartStrategy::Segment
+    );
+    let err =
+        suslov::config::from_toml_str(&with_start("\"sideways\"")).expect_err("unknown start");
+    let msg = err.to_string();
+    assert!(
+        msg.contains("solver.start") && msg.contains("\"segment\""),
+        "{msg}"
+    );
+}

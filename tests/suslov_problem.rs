@@ -195,3 +195,47 @@ fn a_failing_stage_writes_a_marked_partial_result_and_says_where() {
     );
     std::fs::remove_dir_all(&dir).expect("clean up");
 }
+
+#[test]
+fn the_start_case_can_be_overridden() {
+    // Forcing the paper's second case (gamma_c from 0) on the paper's problem: the start BVP
+    // at gamma_c = 0, beta_m = 1e-3 does not converge from the singular solution (the
+    // tracking term is what pins Omega down); the automatic choice (third case) does. The
+    // override must either work with the case it names or fail with a clean start error.
+    use suslov::suslov::solve::{SolveError, StartStrategy};
+    let problem = paper::problem(0.01);
+    for (strategy, case, omega_p) in [
+        (StartStrategy::Desired, 3, "projected desired path"),
+        (
+            StartStrategy::DesiredGammaFromZero,
+            2,
+            "projected desired path",
+        ),
+        (StartStrategy::Segment, 2, "projected segment"),
+    ] {
+        let options = suslov::SolveOptions {
+            start: strategy,
+            ..Default::default()
+        };
+        match suslov::solve(&problem, &options, &mut |_| {}) {
+            Ok(sol) => {
+                assert_eq!((sol.start.case, sol.start.omega_p), (case, omega_p));
+                assert!((sol.terminal_time() - 9.84).abs() < 0.01);
+            }
+            Err(SolveError::Start(msg)) => {
+                assert_ne!(strategy, StartStrategy::Desired, "{msg}");
+                assert!(msg.contains("did not converge"), "{msg}");
+            }
+            Err(e) => panic!("{strategy:?}: unexpected {e}"),
+        }
+    }
+    // gamma = 0 is incompatible with a start from the desired path: a clean error.
+    let mut p = paper::fixed_time_problem(0.0, 10.0);
+    p.weights.gamma = 0.0;
+    let options = suslov::SolveOptions {
+        start: StartStrategy::Desired,
+        ..Default::default()
+    };
+    let err = suslov::solve(&p, &options, &mut |_| {}).expect_err("needs gamma > 0");
+    assert!(err.to_string().contains("needs gamma > 0"), "{err}");
+}

@@ -37,6 +37,21 @@ use super::properties::check_properties;
 /// `E` stays below this and Properties 1 and 3 hold.
 pub const ADMISSIBLE_ENERGY_TOL: f64 = 1e-4;
 
+/// How the analytic start is chosen (paper section 5.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StartStrategy {
+    /// Decide from `γ` and the admissibility of `Ω_d` (the module docs).
+    #[default]
+    Auto,
+    /// `Ω_p = [Ω_d]_∥` and the full `γ` from the start (the paper's third case); needs `γ > 0`.
+    Desired,
+    /// `Ω_p = [Ω_d]_∥`, then `γ` from 0 to `γ` (the paper's second case); needs `γ > 0`.
+    DesiredGammaFromZero,
+    /// `Ω_p` = the projected segment `Ω_a → Ω_b`: `γ` from 0 to `γ` if `γ > 0` (second
+    /// case), from 1 to 0 tracking `Ω_p` if `γ = 0` (first case).
+    Segment,
+}
+
 /// Options of [`solve`].
 #[derive(Debug, Clone)]
 pub struct SolveOptions {
@@ -52,6 +67,8 @@ pub struct SolveOptions {
     pub initial_intervals: usize,
     /// Node cap of every BVP solve.
     pub max_nodes: usize,
+    /// Override of the start case (default: [`StartStrategy::Auto`]).
+    pub start: StartStrategy,
 }
 
 impl Default for SolveOptions {
@@ -62,6 +79,7 @@ impl Default for SolveOptions {
             beta_m: None,
             initial_intervals: 100,
             max_nodes: 20_000,
+            start: StartStrategy::Auto,
         }
     }
 }
@@ -374,6 +392,7 @@ fn choose_start(
     problem: &SuslovProblem,
     b_p: f64,
     beta_m: f64,
+    strategy: StartStrategy,
 ) -> Result<(Arc<dyn DesiredPath + Send + Sync>, StartChoice), SolveError> {
     let a = problem.t0;
     let e = problem.ellipsoid();
@@ -420,7 +439,38 @@ fn choose_start(
         beta_m,
         desired_energy_deviation: desired.max_rel_energy_deviation,
     };
-    if problem.weights.gamma > 0.0 {
+    let gamma_positive = problem.weights.gamma > 0.0;
+    match strategy {
+        StartStrategy::Auto => {}
+        StartStrategy::Segment => {
+            let case = if gamma_positive { 2 } else { 1 };
+            return Ok((segment()?, choice("projected segment", case)));
+        }
+        StartStrategy::Desired | StartStrategy::DesiredGammaFromZero => {
+            if !gamma_positive {
+                return Err(SolveError::Start(
+                    "a start from the desired path needs gamma > 0 (with gamma = 0 the \
+                     desired path is not part of the cost); use the segment or auto start"
+                        .into(),
+                ));
+            }
+            if !admissible_ends(&proj) {
+                return Err(SolveError::Start(format!(
+                    "the projected desired path violates Property 1 or 3 on [a, b_p] \
+                     (|Omega_p(a) - Omega_a| = {:e}, |Omega_p(b_p) - Omega_b| = {:e}, \
+                     min |I Om' - (I Om) x Om| = {:e}); use the segment start",
+                    proj.start_error, proj.end_error, proj.min_euler_defect
+                )));
+            }
+            let case = if strategy == StartStrategy::Desired {
+                3
+            } else {
+                2
+            };
+            return Ok((projected, choice("projected desired path", case)));
+        }
+    }
+    if gamma_positive {
         if admissible_ends(&proj) {
             let case = if desired.max_rel_energy_deviation <= ADMISSIBLE_ENERGY_TOL
                 && admissible_ends(&desired)
@@ -450,7 +500,7 @@ pub fn solve(
         let g = if w.gamma > 0.0 { w.gamma } else { 1.0 };
         1e-2 * w.alpha.min(w.beta).min(g)
     });
-    let (omega_p, start) = choose_start(problem, b_p, beta_m)?;
+    let (omega_p, start) = choose_start(problem, b_p, beta_m, options.start)?;
 
     // Initial guess: the singular solution on a uniform mesh (stages sampled too).
     let mut params = problem.params();
