@@ -7,6 +7,7 @@
 //! ```text
 //! DIR/summary.json             one entry per case (see report::CaseSummary)
 //! DIR/<case>/trajectory.csv    t, Ω, ξ, ξ̇, κ, Ω_d on a uniform grid of [a, b]
+//! DIR/<case>/trajectory.npy    the same table for numpy (float64, shape (rows, 16))
 //! DIR/<case>/*.png             Ω, Ω_d and ξ_∥ in 3-D; ⟨Ω, ξ⟩; |ξ|; κ; Ω components
 //! ```
 //!
@@ -16,7 +17,7 @@
 //!
 //! Every file is written atomically. A case that fails writes what it has, marked: its
 //! summary status says `partial: <stage, parameter value, reason>` and its trajectory goes
-//! to `trajectory.partial.csv`.
+//! to `trajectory.partial.csv` (and `.npy`).
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
@@ -189,6 +190,9 @@ fn write_case_outputs(
     });
     report::write_trajectory_csv(&csv, &table)?;
     events(AppEvent::Wrote(&csv));
+    let npy = csv.with_extension("npy");
+    report::write_trajectory_npy(&npy, &table)?;
+    events(AppEvent::Wrote(&npy));
     let inertia = sol.problem.inertia.diag();
     let om_a = sol.problem.omega_a;
     let ellipsoid =

@@ -124,6 +124,10 @@ fn the_paper_job_writes_complete_outputs() {
             )
         );
         assert_eq!(lines.count(), suslov::app::OUTPUT_POINTS);
+        let npy = std::fs::read(dir.join(&case.name).join("trajectory.npy")).expect("npy");
+        assert_eq!(&npy[..6], b"\x93NUMPY");
+        let hlen = u16::from_le_bytes([npy[8], npy[9]]) as usize;
+        assert_eq!(npy.len(), 10 + hlen + suslov::app::OUTPUT_POINTS * 16 * 8);
         for fig in ["omega_3d", "constraint", "xi_norm", "kappa", "omega"] {
             let png = std::fs::read(dir.join(&case.name).join(format!("{fig}.png"))).expect(fig);
             assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");

@@ -108,3 +108,88 @@ pub fn parse_trajectory_csv(text: &str) -> Result<TrajectoryTable, ReportError> 
     }
     Ok(table)
 }
+
+/// The table as a NumPy `.npy` file (format 1.0): a C-ordered little-endian float64 array of
+/// shape `(rows, 16)` with the columns of [`TRAJECTORY_CSV_HEADER`], for
+/// `numpy.load("trajectory.npy")`.
+///
+/// # Errors
+/// [`ReportError::LengthMismatch`] for inconsistent columns.
+pub fn trajectory_npy_bytes(table: &TrajectoryTable) -> Result<Vec<u8>, ReportError> {
+    table.validate()?;
+    let rows = table.len();
+    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({rows}, 16), }}");
+    // Magic (6) + version (2) + header length (2) + header + '\n', padded to 64 bytes.
+    let unpadded = 10 + header.len() + 1;
+    header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
+    header.push('\n');
+    let mut out = Vec::with_capacity(10 + header.len() + rows * 16 * 8);
+    out.extend_from_slice(b"\x93NUMPY\x01\x00");
+    let len = u16::try_from(header.len()).expect("the header is short");
+    out.extend_from_slice(&len.to_le_bytes());
+    out.extend_from_slice(header.as_bytes());
+    for i in 0..rows {
+        out.extend_from_slice(&table.t[i].to_le_bytes());
+        for col in [
+            &table.omega,
+            &table.xi,
+            &table.xi_dot,
+            &table.kappa,
+            &table.omega_d,
+        ] {
+            for v in col[i] {
+                out.extend_from_slice(&v.to_le_bytes());
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Writes [`trajectory_npy_bytes`] atomically to `path`.
+///
+/// # Errors
+/// As [`trajectory_npy_bytes`], or [`ReportError::Io`] naming `path`.
+pub fn write_trajectory_npy(
+    path: impl AsRef<Path>,
+    table: &TrajectoryTable,
+) -> Result<(), ReportError> {
+    write_atomic(path, &trajectory_npy_bytes(table)?)
+}
+
+#[cfg(test)]
+mod npy_tests {
+    use super::*;
+
+    #[test]
+    fn npy_layout_header_and_values() {
+        let table = TrajectoryTable {
+            t: vec![0.0, 0.5, 1.0],
+            omega: vec![[1.0, 2.0, 3.0]; 3],
+            xi: vec![[4.0, 5.0, 6.0]; 3],
+            xi_dot: vec![[7.0, 8.0, 9.0]; 3],
+            kappa: vec![[10.0, 11.0, 12.0]; 3],
+            omega_d: vec![[13.0, 14.0, -1e-300]; 3],
+        };
+        let b = trajectory_npy_bytes(&table).expect("valid table");
+        assert_eq!(&b[..8], b"\x93NUMPY\x01\x00");
+        let hlen = u16::from_le_bytes([b[8], b[9]]) as usize;
+        assert_eq!((10 + hlen) % 64, 0, "data must start 64-byte aligned");
+        let header = std::str::from_utf8(&b[10..10 + hlen]).expect("ascii header");
+        assert!(header.contains("'descr': '<f8'") && header.contains("'shape': (3, 16)"));
+        assert!(header.ends_with('\n'));
+        assert_eq!(b.len(), 10 + hlen + 3 * 16 * 8);
+        let value = |row: usize, col: usize| {
+            let at = 10 + hlen + (row * 16 + col) * 8;
+            f64::from_le_bytes(b[at..at + 8].try_into().expect("8 bytes"))
+        };
+        assert_eq!(value(1, 0), 0.5);
+        assert_eq!(value(2, 1), 1.0);
+        assert_eq!(value(2, 13), 13.0);
+        assert_eq!(value(0, 15), -1e-300);
+        let bad = TrajectoryTable {
+            t: vec![0.0],
+            ..table
+        };
+        assert!(trajectory_npy_bytes(&bad).is_err());
+    }
+}

@@ -46,7 +46,8 @@ mod table;
 
 pub use atomic::write_atomic;
 pub use csv::{
-    parse_trajectory_csv, trajectory_csv_string, write_trajectory_csv, TRAJECTORY_CSV_HEADER,
+    parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, write_trajectory_csv,
+    write_trajectory_npy, TRAJECTORY_CSV_HEADER,
 };
 pub use error::ReportError;
 pub use figures::{
