@@ -19,7 +19,7 @@ struct Cli {
     /// Print nothing but errors.
     #[arg(short, long, global = true)]
     quiet: bool,
-    /// Print every continuation step (also on a terminal).
+    /// Print every continuation step, Newton step and mesh pass (also on a terminal).
     #[arg(short, long, global = true)]
     verbose: bool,
     #[command(subcommand)]
