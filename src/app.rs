@@ -199,6 +199,20 @@ fn write_case_outputs(
         report::EnergyEllipsoid::through([inertia[0], inertia[1], inertia[2]], om_a.into())?;
     let mut opts = FigureOptions::new(title, ellipsoid);
     opts.format = FigureFormat::Png;
+    // When the optimal b is shorter than the start's b_p (the paper's η = 0.01 case: b = 9.84
+    // < b_d = 10), draw Ω_d up to b_p with a marker at Ω_d(b), as the paper's figure does.
+    let (a, b, b_p) = (sol.problem.t0, sol.terminal_time(), sol.start.b_p);
+    if b_p > b {
+        let n = OUTPUT_POINTS;
+        opts.desired_extended = Some(
+            (0..n)
+                .map(|k| {
+                    let t = a + (b_p - a) * k as f64 / (n - 1) as f64;
+                    sol.problem.desired.value(t).into()
+                })
+                .collect(),
+        );
+    }
     if !partial {
         for path in report::write_case_figures(dir, &table, &opts)? {
             events(AppEvent::Wrote(&path));
