@@ -109,11 +109,15 @@ impl Reporter {
     fn event(&mut self, e: AppEvent) {
         match e {
             AppEvent::CaseStarted { name } => {
-                if self.terminal && !self.quiet {
-                    let bar = ProgressBar::new_spinner();
+                if self.terminal && !self.quiet && !self.verbose {
+                    // Per stage: the homotopy parameter from 0 to 100 %.
+                    let bar = ProgressBar::new(100);
                     bar.set_style(
-                        ProgressStyle::with_template("{spinner} {prefix} {wide_msg} [{elapsed}]")
-                            .expect("valid template"),
+                        ProgressStyle::with_template(
+                            "{spinner} {prefix} [{bar:20}] {pos:>3}% {wide_msg} [{elapsed}]",
+                        )
+                        .expect("valid template")
+                        .progress_chars("=> "),
                     );
                     bar.set_prefix(name.to_string());
                     bar.enable_steady_tick(std::time::Duration::from_millis(120));
@@ -129,9 +133,11 @@ impl Reporter {
                     format!("  stage {name}: {from:.6} -> {to:.6}")
                 };
                 if let Some(bar) = &self.bar {
+                    bar.set_position(0);
                     bar.set_message(text.trim().to_string());
-                }
-                if self.verbose || self.bar.is_none() {
+                } else if self.verbose {
+                    tracing::info!("{}", text.trim());
+                } else {
                     self.line(text);
                 }
             }
@@ -148,10 +154,13 @@ impl Reporter {
                     record.nodes
                 );
                 if let Some(bar) = &self.bar {
+                    if record.accepted {
+                        bar.set_position((record.lambda.clamp(0.0, 1.0) * 100.0).round() as u64);
+                    }
                     bar.set_message(text.trim().to_string());
                 }
                 if self.verbose {
-                    self.line(text);
+                    tracing::info!("{}", text.trim());
                 }
             }
             AppEvent::Solve(Event::Bvp {
@@ -164,15 +173,20 @@ impl Reporter {
                     bar.set_message(text.clone());
                 }
                 if self.verbose {
-                    self.line(format!("      {text}"));
+                    tracing::debug!("{text}");
                 }
             }
             AppEvent::Solve(Event::StageFinished(r)) => {
-                if self.verbose || self.bar.is_none() {
-                    self.line(format!(
-                        "  stage {} done: {} steps, {} recovered failures, {} Newton iterations, {} nodes, {:.3} s",
-                        r.name, r.steps, r.failures_recovered, r.newton_iterations, r.nodes, r.seconds
-                    ));
+                let text = format!(
+                    "stage {} done: {} steps, {} recovered failures, {} Newton iterations, {} nodes, {:.3} s",
+                    r.name, r.steps, r.failures_recovered, r.newton_iterations, r.nodes, r.seconds
+                );
+                if let Some(bar) = &self.bar {
+                    bar.set_position(100);
+                } else if self.verbose {
+                    tracing::info!("{text}");
+                } else {
+                    self.line(format!("  {text}"));
                 }
             }
             AppEvent::CaseFinished(c) => {
@@ -186,7 +200,7 @@ impl Reporter {
             }
             AppEvent::Wrote(path) => {
                 if self.verbose {
-                    self.line(format!("  wrote {}", path.display()));
+                    tracing::info!("wrote {}", path.display());
                 }
             }
         }
@@ -195,6 +209,16 @@ impl Reporter {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    if cli.verbose && !cli.quiet {
+        // -v: structured logs (tracing) of every stage, continuation step, Newton step and
+        // mesh pass on stderr, instead of the progress bar.
+        tracing_subscriber::fmt()
+            .with_writer(std::io::stderr)
+            .with_max_level(tracing::Level::DEBUG)
+            .with_target(false)
+            .without_time()
+            .init();
+    }
     let mut reporter = Reporter {
         quiet: cli.quiet,
         verbose: cli.verbose,
