@@ -19,8 +19,14 @@ Steps, in the order they run:
 4. Boundary conditions from the boundary terms of the first variation: Om fixed at both ends,
    the xi-momentum p_xi = dL/dxi_dot vanishes at both ends (xi free), and for free terminal time
    the energy function E = <p_Om, Om_dot> + <p_xi, xi_dot> - L vanishes at b.
+5. Direct transcription (`DirectTranscription`): the OCP in classical state/control form,
+   z = [x, u] = [Om, xi, xi_dot], f(z) = [Om_dot; xi_dot], running cost C on-shell, with df/dz,
+   the cost gradient and the Hessian of w L + <lam, f>, all in forward mode.
 """
 
+import random
+
+import mpmath
 import sympy as sp
 
 import model as M
@@ -252,3 +258,75 @@ def singular_xi():
     mom = s.mom
     xt = mom.jacobian(M.Om) * M.OmDot - cross(mom, M.Om)
     return xt
+
+
+# ---------------------------------------------------------------------------------------------
+# Direct transcription: the OCP in classical state/control form
+
+
+class DirectTranscription:
+    """Point functions of the optimal control problem in classical state/control form, for a
+    direct transcription (discretize, then optimize) and its second-order certificate.
+
+    State x = [Om, xi], control u = xi_dot, z = [x, u] = [Om, xi, xi_dot] (`Z`).
+    Dynamics f(z) = [F(Om, xi, xi_dot); xi_dot] with F Suslov's Om_dot (step 1); running cost
+    L(z, Om_d) = C(Om, F, xi, xi_dot, Om_d), the cost integrand on-shell. All derivatives are
+    forward mode through one straight-line program (`slp.Program.jacobian`); the Hessian of the
+    point Lagrangian l = w L + <lam, f> is the Jacobian of its gradient (forward over forward),
+    asserted symmetric at seeded points and emitted from its upper triangle.
+    """
+
+    Z = list(M.Om) + list(M.xi) + list(M.xiDot)
+    W = sp.Symbol("w", real=True)  # weight of the cost in the point Lagrangian
+    LAM = list(sp.symbols("lam1:7", real=True))  # multipliers of the 6 dynamics rows
+
+    def __init__(self, opt):
+        self.suslov = opt.suslov
+        self.C = opt.C  # in Om, OmDot, xi, xiDot, Om_d; OmDot is assigned on-shell below
+
+    def program(self, extra_inputs=()):
+        """A program over z, Om_d (and `extra_inputs`) whose first assignments are
+        lambda and Om_dot = F(z). Returns (program, f) with f the 6 dynamics entries."""
+        prog = Program(self.Z + list(M.Om_d) + list(extra_inputs), M.PARAMS)
+        om_dot = self.suslov.let_omega_dot(prog)
+        return prog, list(om_dot) + list(M.xiDot)
+
+    def dynamics_jacobian(self, prog, f):
+        """df/dz, 6 x 9."""
+        return prog.jacobian(f, self.Z)
+
+    def cost_gradient(self, prog):
+        """(dL/dz, dL/dOm_d) as column matrices (9, 3)."""
+        J = prog.jacobian([self.C], self.Z + list(M.Om_d))
+        return J[0, :9].T, J[0, 9:].T
+
+    def lagrangian_hessian(self, prog, f, check_points=3, seed=7):
+        """The Hessian of l = w L + <lam, f> w.r.t. v = [z, Om_d] (12 x 12), symmetric.
+
+        Forward over forward: the gradient is a Jacobian through the program (prefix d), the
+        Hessian the Jacobian of that gradient (prefix dd). H[i][j] = d/dv_j (dl/dv_i) and
+        H[j][i] are different expressions of the same number: they are compared at seeded
+        points (mpmath, 40 digits) and the upper triangle is returned mirrored, so that the
+        emitted Hessian is symmetric to the last bit.
+        """
+        v = self.Z + list(M.Om_d)
+        ell = self.W * self.C + sum(l * e for l, e in zip(self.LAM, f))
+        grad_ = prog.jacobian([ell], v, prefix="d")
+        H = prog.jacobian(list(grad_), v, prefix="dd")
+        n = len(v)
+        pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+        run = prog.evaluator([H[i, j] - H[j, i] for i, j in pairs]
+                             + [H[i, j] for i, j in pairs])
+        rng = random.Random(seed)
+        for _ in range(check_points):
+            vals = {}
+            for s in prog.inputs + prog.constants:
+                x = rng.uniform(0.5, 2.0)
+                vals[s] = x if s in M.PARAMS else rng.choice([-1, 1]) * x
+            out = run(vals)
+            diff, upper = out[:len(pairs)], out[len(pairs):]
+            scale = max(1, max(abs(e) for e in upper))
+            bad = [pairs[k] for k, d in enumerate(diff) if abs(d) > scale * mpmath.mpf(10) ** -30]
+            if bad:
+                raise AssertionError(f"Hessian of the point Lagrangian is not symmetric at {bad}")
+        return sp.Matrix(n, n, lambda i, j: H[min(i, j), max(i, j)])

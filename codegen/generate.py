@@ -252,6 +252,43 @@ def build_functions(opt):
         prog, [cx_arg, p_arg],
         [Out("out", aff.brackets_matrix(), "matrix",
              "rows [g1, g2], [g1, g3], [g2, g3]; `out[k][j]` = component j")]))
+
+    # ---- direct transcription: classical state/control form (derive.DirectTranscription) --
+    dt = D.DirectTranscription(opt)
+    z_arg = Arg("z", dt.Z, "[x, u] = [Omega, xi, xi'] (state x = [Omega, xi], control u = xi')",
+                state_sample)
+    od_arg = Arg("od", list(M.Om_d), "the desired Omega_d at this time", u(-2.0, 2.0))
+    prog, f = dt.program()
+    fns.append(Function(
+        "direct_dynamics",
+        "The dynamics of the direct transcription, x' = f(z) = [F(Omega, xi, xi'); xi'] with F\n"
+        "Suslov's Omega' (as `suslov_omega_dot`), and its Jacobian df/dz.",
+        prog, [z_arg, p_arg],
+        [Out("f", sp.Matrix(f), "array", "f(z), 6 entries"),
+         Out("f_z", dt.dynamics_jacobian(prog, f), "matrix",
+             "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j")]))
+    prog, f = dt.program()
+    l_z, l_d = dt.cost_gradient(prog)
+    fns.append(Function(
+        "direct_cost",
+        "The running cost of the direct transcription, L(z, Omega_d) = C(Omega, F, xi, xi',\n"
+        "Omega_d) (the cost integrand with Omega' = F; as `cost_integrand`), and its gradients.",
+        prog, [z_arg, p_arg, od_arg],
+        [Out("l_z", l_z, "array", "dL/dz"),
+         Out("l_d", l_d, "array", "dL/dOmega_d"),
+         Out("value", dt.C, "return", "L")]))
+    prog, f = dt.program([dt.W] + dt.LAM)
+    H = dt.lagrangian_hessian(prog, f)
+    fns.append(Function(
+        "direct_hessian",
+        "Second derivatives of the point Lagrangian l = w L(z, Omega_d) + sum_i lam_i f_i(z) of\n"
+        "the direct transcription (f does not depend on Omega_d). Exactly symmetric.",
+        prog, [z_arg, p_arg, od_arg,
+               Scalar(dt.W, "the weight w of the running cost L", u(0.1, 2.0)),
+               Arg("lam", dt.LAM, "the multipliers of the six dynamics rows f_i", u(-2.0, 2.0))],
+        [Out("h_zz", H[:9, :9], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
+         Out("h_zd", H[:9, 9:], "matrix", "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
+         Out("h_dd", H[9:, 9:], "matrix", "d2l/dOmega_d2")]))
     return fns
 
 
