@@ -15,6 +15,10 @@
 //! writing `summary.json`, the trajectory and the figures directly into its directory, with
 //! a copy of the problem file as `problem.toml`.
 //!
+//! [`run_certify`] solves the paper's cases (or one problem file) and certifies each
+//! solution as a local minimum of the discretized problem, or not
+//! ([`crate::suslov::certify`]).
+//!
 //! Every file is written atomically. A case that fails writes what it has, marked: its
 //! summary status says `partial: <stage, parameter value, reason>` and its trajectory goes
 //! to `trajectory.partial.csv` (and `.npy`).
@@ -24,8 +28,8 @@ use std::time::Instant;
 
 use crate::config::{self, ConfigError};
 use crate::report::{
-    self, CaseSummary, FigureFormat, FigureOptions, ReportError, StabilityRun, StageSummary,
-    Summary, TrajectoryTable,
+    self, CaseSummary, CertificateReport, FigureFormat, FigureOptions, ReportError, StabilityRun,
+    StageSummary, Summary, TrajectoryTable,
 };
 use crate::suslov::diagnostics::{diagnose, reintegrate_check};
 use crate::suslov::paper::{self, PaperCase};
@@ -47,6 +51,8 @@ pub enum AppEvent<'a> {
     Solve(&'a Event<'a>),
     /// A case ended (converged or not).
     CaseFinished(&'a CaseSummary),
+    /// A case was certified (or not).
+    Certified(&'a CertificateReport),
     /// A file was written.
     Wrote(&'a Path),
 }
@@ -324,4 +330,97 @@ pub fn run_solve(
     report::write_summary_json(&path, &summary)?;
     events(AppEvent::Wrote(&path));
     Ok(summary)
+}
+
+/// One case for [`run_certify`].
+pub struct CertifyJob {
+    /// Case name.
+    pub name: String,
+    /// The problem.
+    pub problem: SuslovProblem,
+    /// Solver options.
+    pub options: SolveOptions,
+}
+
+/// The cases of `suslov certify [CONFIG]`: the problem in `config`, or the paper's two.
+pub fn certify_jobs(config: Option<&Path>) -> Result<Vec<CertifyJob>, AppError> {
+    Ok(match config {
+        Some(path) => {
+            let loaded = config::load(path)?;
+            vec![CertifyJob {
+                name: loaded.name,
+                problem: loaded.problem,
+                options: loaded.options,
+            }]
+        }
+        None => paper::CASES
+            .iter()
+            .map(|c| CertifyJob {
+                name: c.name.to_string(),
+                problem: paper::problem(c.eta),
+                options: SolveOptions::default(),
+            })
+            .collect(),
+    })
+}
+
+/// `suslov certify`: solve each case and certify the solution on its own mesh. A failed
+/// solve or certificate is recorded in its report (verdict `"error"`), not returned. With
+/// `json`, the reports are written there (atomically) as `{"cases": [...]}`.
+pub fn run_certify(
+    jobs: &[CertifyJob],
+    json: Option<&Path>,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Vec<CertificateReport>, AppError> {
+    use crate::ocp::{NewtonOptions, SecondOrderOptions};
+    let mut reports = Vec::new();
+    for job in jobs {
+        events(AppEvent::CaseStarted { name: &job.name });
+        let clock = Instant::now();
+        let solved = solve::solve(&job.problem, &job.options, &mut |e| {
+            events(AppEvent::Solve(e))
+        });
+        let solve_seconds = clock.elapsed().as_secs_f64();
+        let mut report = match solved {
+            Err(e) => CertificateReport::error(&job.name, format!("the solve failed: {e}")),
+            Ok(sol) => {
+                let clock = Instant::now();
+                let cert = crate::suslov::certify::certify(
+                    &sol,
+                    &NewtonOptions::default(),
+                    &SecondOrderOptions::default(),
+                );
+                let mut r = match cert {
+                    Ok(c) => CertificateReport::from_certificate(&job.name, &c),
+                    Err(e) => CertificateReport::error(&job.name, format!("certificate: {e}")),
+                };
+                r.certify_seconds = clock.elapsed().as_secs_f64();
+                r
+            }
+        };
+        report.solve_seconds = solve_seconds;
+        events(AppEvent::Certified(&report));
+        reports.push(report);
+    }
+    if let Some(path) = json {
+        #[derive(serde::Serialize)]
+        struct Cases<'a> {
+            cases: &'a [CertificateReport],
+        }
+        let text = serde_json::to_vec_pretty(&Cases { cases: &reports }).map_err(|source| {
+            ReportError::Json {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        report::write_atomic(path, &text)?;
+        events(AppEvent::Wrote(path));
+    }
+    Ok(reports)
 }

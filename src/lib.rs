@@ -10,6 +10,8 @@
 //! - [`bvp`]: a generic two-point boundary value problem solver that knows nothing of Suslov
 //!   (4-stage Lobatto IIIA collocation, order 6, adaptive mesh, structured Newton).
 //! - [`continuation`]: natural-parameter and pseudo-arclength continuation of BVP families.
+//! - [`ocp`]: generic optimal control: direct transcription, KKT conditions and the
+//!   second-order (local minimum) certificate.
 //! - [`ivp`]: adaptive high-order IVP integration, for a-posteriori checks.
 //! - [`suslov`](mod@suslov): the problem layer (problem data and validation, desired paths with
 //!   exact derivatives, the analytic singular start, the staged homotopy of the paper's
@@ -69,6 +71,7 @@ pub mod config;
 pub mod continuation;
 pub mod ivp;
 pub mod model;
+pub mod ocp;
 pub mod report;
 pub mod suslov;
 

@@ -49,6 +49,18 @@ enum Command {
     /// V = [g1, g2, g3, [g_i, g_j]], its singular values and the drift, at one state
     /// (--omega and --xi) or at random states of M with the energy of --omega-a.
     Controllability(ControllabilityArgs),
+    /// Second-order certificate: solve the paper's two cases (or CONFIG), transcribe each
+    /// solution directly on its own mesh, move it to the exact KKT point of the discretized
+    /// problem and decide from the inertia of the KKT matrix whether it is a strict local
+    /// minimum. Exit status 0: every case certified; 2: some case is not (or has no
+    /// verdict); 1: an error (bad file, unwritable JSON).
+    Certify {
+        /// A problem file (TOML, as for `solve`); without it, the paper's two cases.
+        config: Option<PathBuf>,
+        /// Also write the reports as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
 }
 
 /// Arguments of `suslov controllability`.
@@ -198,6 +210,12 @@ impl Reporter {
                     c.name, c.status, c.terminal_time, c.cost, c.max_abs_constraint, c.mesh_nodes, c.wall_seconds
                 ));
             }
+            AppEvent::Certified(r) => {
+                if let Some(bar) = self.bar.take() {
+                    bar.finish_and_clear();
+                }
+                self.line(format!("case {}: {}", r.name, r.message));
+            }
             AppEvent::Wrote(path) => {
                 if self.verbose {
                     tracing::info!("wrote {}", path.display());
@@ -231,6 +249,28 @@ fn main() -> ExitCode {
                 Ok(table) => {
                     print!("{table}");
                     ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
+        Command::Certify { config, json } => {
+            let result = app::certify_jobs(config.as_deref()).and_then(|jobs| {
+                app::run_certify(&jobs, json.as_deref(), &mut |e| reporter.event(e))
+            });
+            return match result {
+                Ok(reports) => {
+                    for r in &reports {
+                        print!("{}", r.text());
+                    }
+                    if reports.iter().all(|r| r.verdict == "certified") {
+                        ExitCode::SUCCESS
+                    } else {
+                        eprintln!("not every case is certified as a local minimum");
+                        ExitCode::from(2)
+                    }
                 }
                 Err(e) => {
                     eprintln!("error: {e}");

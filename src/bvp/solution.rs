@@ -357,6 +357,21 @@ impl Solution {
         &self.y[i * self.n..(i + 1) * self.n]
     }
 
+    /// The discrete solution at every collocation point, in time order: node `x_i`, the two
+    /// interior stages of interval `i`, …, the last node (`3N + 1` points, row-major
+    /// `(3N + 1) × n`). These are the values the collocation equations hold for, not
+    /// interpolated ones.
+    pub fn collocation_values(&self) -> Vec<f64> {
+        let (n, nn) = (self.n, self.x.len() - 1);
+        let mut out = Vec::with_capacity((3 * nn + 1) * n);
+        for i in 0..nn {
+            out.extend_from_slice(self.y_at(i));
+            out.extend_from_slice(&self.stages[i * 2 * n..(i + 1) * 2 * n]);
+        }
+        out.extend_from_slice(self.y_at(nn));
+        out
+    }
+
     /// Interval containing `x` and local coordinate `t` (outside `[a, b]` the end
     /// polynomials are extrapolated).
     fn locate(&self, x: f64) -> (usize, f64) {

@@ -38,6 +38,7 @@
 //! [`write_case_figures`], which owns its output directory, creates it.
 
 mod atomic;
+mod certificate;
 mod csv;
 mod error;
 mod figures;
@@ -45,6 +46,7 @@ mod summary;
 mod table;
 
 pub use atomic::write_atomic;
+pub use certificate::CertificateReport;
 pub use csv::{
     parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, write_trajectory_csv,
     write_trajectory_npy, TRAJECTORY_CSV_HEADER,

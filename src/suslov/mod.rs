@@ -36,6 +36,7 @@
 //! - `ProjectedSegment` is the paper's nominal `Ω_p` for `γ = 0` (section 5.2); it also meets
 //!   P1–P3 (min `|ξ̃|` = 0.64).
 
+pub mod certify;
 pub mod controllability;
 pub mod desired;
 pub mod diagnostics;

@@ -1,0 +1,22 @@
+//! Generic optimal control: direct transcription of an OCP on a collocation mesh, its KKT
+//! conditions, and second-order (local minimum) certification. Knows nothing of Suslov.
+//!
+//! - [`problem`]: the problem (dynamics, running cost, their derivatives and Hessians).
+//! - [`transcription`]: the NLP on a mesh (4-stage Lobatto IIIA, as the BVP solver).
+//! - [`kkt`]: KKT residuals, least-squares multipliers, Newton's method on the KKT system.
+//! - [`certify`]: the second-order test (inertia of the KKT matrix) and its margin.
+//! - [`inertia`]: inertia (numbers of positive, negative and zero eigenvalues) of sparse
+//!   symmetric (indefinite) matrices through an `L B Lᵀ` factorization.
+
+pub mod certify;
+pub mod inertia;
+pub mod kkt;
+pub mod problem;
+pub mod transcription;
+
+pub use certify::{
+    certify, Certificate, CertifyError, SecondOrderOptions, SecondOrderReport, Verdict,
+};
+pub use kkt::{KktError, KktPoint, KktResidual, NewtonOptions};
+pub use problem::{Boundary, Horizon, OcpProblem};
+pub use transcription::{Transcription, TranscriptionError};

@@ -1,0 +1,170 @@
+//! The second-order certificate of a case as a machine-readable record and a text table.
+
+use serde::Serialize;
+
+use super::summary::{finite_or_null, opt_finite_or_null};
+use crate::suslov::certify::SuslovCertificate;
+
+/// One case of `suslov certify` (serialized into `certificate.json`).
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct CertificateReport {
+    /// Case name.
+    pub name: String,
+    /// `"certified"`, `"not_minimum"`, `"degenerate"`, or `"error"` (see `message`).
+    pub verdict: String,
+    /// The verdict in words, or the error.
+    pub message: String,
+    /// Terminal time `b` of the certified point.
+    #[serde(with = "finite_or_null")]
+    pub terminal_time: f64,
+    /// Whether `b` was an unknown.
+    pub free_time: bool,
+    /// Cost of the certified point.
+    #[serde(with = "finite_or_null")]
+    pub cost: f64,
+    /// Mesh intervals (the solution's own mesh).
+    pub intervals: usize,
+    /// Unknowns of the discretized problem.
+    pub unknowns: usize,
+    /// Equality constraints of the discretized problem.
+    pub constraints: usize,
+    /// KKT stationarity residual of the indirect solution (relative to `‖∇J‖∞`), with its
+    /// least-squares multipliers.
+    #[serde(with = "finite_or_null")]
+    pub candidate_stationarity: f64,
+    /// Constraint residual of the indirect solution in the direct discretization.
+    #[serde(with = "finite_or_null")]
+    pub candidate_feasibility: f64,
+    /// Newton iterations to the exact KKT point of the discretized problem.
+    pub newton_iterations: usize,
+    /// `‖v* − v₀‖∞`, certified point against the indirect solution.
+    #[serde(with = "finite_or_null")]
+    pub displacement: f64,
+    /// KKT stationarity residual (relative) at the certified point.
+    #[serde(with = "finite_or_null")]
+    pub kkt_stationarity: f64,
+    /// Constraint residual at the certified point.
+    #[serde(with = "finite_or_null")]
+    pub kkt_feasibility: f64,
+    /// Multipliers read as costates against the classical costates from κ (relative).
+    #[serde(with = "finite_or_null")]
+    pub costate_mismatch: f64,
+    /// Inertia of the KKT matrix `[positive, negative, zero]`; certified ⇔
+    /// `[unknowns, constraints, 0]`.
+    pub inertia: [usize; 3],
+    /// Negative eigenvalues of the reduced Hessian.
+    pub negative_curvature_directions: usize,
+    /// Lower end of the bracket of the smallest eigenvalue of the reduced Hessian in the
+    /// metric `∫|δξ̇|² dt + |δξ(a)|² (+ δb²)`.
+    #[serde(with = "opt_finite_or_null")]
+    pub margin_low: Option<f64>,
+    /// Upper end of that bracket.
+    #[serde(with = "opt_finite_or_null")]
+    pub margin_high: Option<f64>,
+    /// Backward error of the `LBLᵀ` factorization the verdict rests on.
+    #[serde(with = "finite_or_null")]
+    pub backward_error: f64,
+    /// Wall time of the solve, seconds.
+    pub solve_seconds: f64,
+    /// Wall time of the certificate, seconds.
+    pub certify_seconds: f64,
+}
+
+impl CertificateReport {
+    /// The record of a certificate.
+    pub fn from_certificate(name: &str, c: &SuslovCertificate) -> Self {
+        let so = &c.certificate.second_order;
+        let verdict = serde_json::to_value(so.verdict)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default();
+        Self {
+            name: name.to_string(),
+            verdict,
+            message: so.verdict.sentence().to_string(),
+            terminal_time: c.terminal_time,
+            free_time: c.free_time,
+            cost: c.cost,
+            intervals: c.intervals,
+            unknowns: so.n_var,
+            constraints: so.n_con,
+            candidate_stationarity: c.certificate.candidate.relative_stationarity(),
+            candidate_feasibility: c.certificate.candidate.feasibility,
+            newton_iterations: c.certificate.newton_iterations,
+            displacement: c.certificate.displacement,
+            kkt_stationarity: c.certificate.kkt.relative_stationarity(),
+            kkt_feasibility: c.certificate.kkt.feasibility,
+            costate_mismatch: c.costate_mismatch,
+            inertia: [so.inertia.positive, so.inertia.negative, so.inertia.zero],
+            negative_curvature_directions: so.negative_curvature_directions,
+            margin_low: so.margin.map(|m| m.0),
+            margin_high: so.margin.map(|m| m.1),
+            backward_error: so.backward_error,
+            ..Default::default()
+        }
+    }
+
+    /// The record of a case that could not be certified (solve or certificate failed).
+    pub fn error(name: &str, message: String) -> Self {
+        Self {
+            name: name.to_string(),
+            verdict: "error".to_string(),
+            message,
+            terminal_time: f64::NAN,
+            cost: f64::NAN,
+            candidate_stationarity: f64::NAN,
+            candidate_feasibility: f64::NAN,
+            displacement: f64::NAN,
+            kkt_stationarity: f64::NAN,
+            kkt_feasibility: f64::NAN,
+            costate_mismatch: f64::NAN,
+            backward_error: f64::NAN,
+            ..Default::default()
+        }
+    }
+
+    /// A few lines for people.
+    pub fn text(&self) -> String {
+        if self.verdict == "error" {
+            return format!("case {}: no verdict: {}\n", self.name, self.message);
+        }
+        let margin = match (self.margin_low, self.margin_high) {
+            (Some(lo), Some(hi)) => format!("in [{lo:.4e}, {hi:.4e}]"),
+            _ => "not bracketed".to_string(),
+        };
+        format!(
+            "case {name}: {msg}\n\
+             \x20 b = {b:.6}{free}, cost = {cost:.6}, {iv} intervals: {nv} unknowns, {nc} constraints\n\
+             \x20 indirect solution as a KKT point: stationarity {cs:.1e}, feasibility {cf:.1e}\n\
+             \x20 Newton to the exact KKT point: {it} iterations, displacement {disp:.1e}, \
+             residuals {ks:.1e} / {kf:.1e}\n\
+             \x20 multipliers vs costates from kappa: {cm:.1e} (relative)\n\
+             \x20 KKT inertia (+{p}, -{n}, 0x{z}); expected (+{nv}, -{nc}, 0x0) for a minimum; \
+             {neg} negative curvature direction(s)\n\
+             \x20 smallest eigenvalue of the reduced Hessian: {margin}\n\
+             \x20 LBL^T backward error {be:.1e}; {ss:.2} s solve, {cs2:.2} s certificate\n",
+            name = self.name,
+            msg = self.message,
+            b = self.terminal_time,
+            free = if self.free_time { " (free)" } else { " (fixed)" },
+            cost = self.cost,
+            iv = self.intervals,
+            nv = self.unknowns,
+            nc = self.constraints,
+            cs = self.candidate_stationarity,
+            cf = self.candidate_feasibility,
+            it = self.newton_iterations,
+            disp = self.displacement,
+            ks = self.kkt_stationarity,
+            kf = self.kkt_feasibility,
+            cm = self.costate_mismatch,
+            p = self.inertia[0],
+            n = self.inertia[1],
+            z = self.inertia[2],
+            neg = self.negative_curvature_directions,
+            be = self.backward_error,
+            ss = self.solve_seconds,
+            cs2 = self.certify_seconds,
+        )
+    }
+}

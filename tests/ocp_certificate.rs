@@ -1,0 +1,477 @@
+//! The generic direct transcription, KKT Newton and second-order certificate (`suslov::ocp`)
+//! on problems with known answers:
+//! - derivatives of the NLP (gradient, constraint Jacobian, Lagrangian Hessian, including the
+//!   free length T and explicit time dependence) against finite differences;
+//! - the inertia test and its margin against a dense null-space computation;
+//! - the oscillator `ẋ = u`, `L = (u² − x²)/2`, `x(0) = 0`, `x(T) = 1`: the extremal
+//!   `x = sin t / sin T` is a minimum for `T < π` and a saddle for `T > π` (conjugate point at
+//!   π), with margin `μ_min → 1 − (T/π)²`: the certificate must say yes, and no;
+//! - a free-time problem with optimal `T* = 1/√(2δ)`.
+
+use nalgebra::{DMatrix, SymmetricEigen};
+use suslov::ocp::certify::second_order;
+use suslov::ocp::kkt::{self, KktPoint};
+use suslov::ocp::{
+    certify, Boundary, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions, Transcription,
+    Verdict,
+};
+
+/// `ẋ = u`, `L = (u² − x²)/2` (or `−u²/2 − …` when `flip`, a maximization in disguise).
+struct Oscillator {
+    flip: bool,
+}
+
+impl OcpProblem for Oscillator {
+    fn n_state(&self) -> usize {
+        1
+    }
+    fn n_control(&self) -> usize {
+        1
+    }
+    fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
+        f[0] = z[1];
+        f_z.copy_from_slice(&[0.0, 1.0]);
+        f_t[0] = 0.0;
+    }
+    fn running_cost(&self, _t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
+        let s = if self.flip { -1.0 } else { 1.0 };
+        l_z[0] = -s * z[0];
+        l_z[1] = s * z[1];
+        (s * 0.5 * (z[1] * z[1] - z[0] * z[0]), 0.0)
+    }
+    fn lagrangian_hessian(&self, _t: f64, _z: &[f64], w: f64, _lam: &[f64], h: &mut [f64]) {
+        let s = if self.flip { -1.0 } else { 1.0 };
+        h.fill(0.0);
+        h[0] = -s * w;
+        h[4] = s * w;
+    }
+}
+
+/// A nonlinear, explicitly time-dependent problem (n = 2, m = 1) for derivative checks:
+/// `f = [x₂, u − sin x₁ + 0.3 t x₁]`, `L = u²/2 + x₁² cos(t)/2 + 0.1 x₂ u² + δ`.
+struct Pendulum {
+    delta: f64,
+}
+
+impl OcpProblem for Pendulum {
+    fn n_state(&self) -> usize {
+        2
+    }
+    fn n_control(&self) -> usize {
+        1
+    }
+    fn dynamics(&self, t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
+        let (x1, x2, u) = (z[0], z[1], z[2]);
+        f[0] = x2;
+        f[1] = u - x1.sin() + 0.3 * t * x1;
+        f_z.copy_from_slice(&[0.0, 1.0, 0.0, -x1.cos() + 0.3 * t, 0.0, 1.0]);
+        f_t[0] = 0.0;
+        f_t[1] = 0.3 * x1;
+    }
+    fn running_cost(&self, t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
+        let (x1, x2, u) = (z[0], z[1], z[2]);
+        l_z[0] = x1 * t.cos();
+        l_z[1] = 0.1 * u * u;
+        l_z[2] = u + 0.2 * x2 * u;
+        (
+            0.5 * u * u + 0.5 * x1 * x1 * t.cos() + 0.1 * x2 * u * u + self.delta,
+            -0.5 * x1 * x1 * t.sin(),
+        )
+    }
+    fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lam: &[f64], h: &mut [f64]) {
+        let (x1, x2, u) = (z[0], z[1], z[2]);
+        h.fill(0.0);
+        let mut set = |r: usize, c: usize, v: f64| {
+            h[r * 4 + c] += v;
+            if r != c {
+                h[c * 4 + r] += v;
+            }
+        };
+        set(0, 0, w * t.cos() + lam[1] * x1.sin());
+        set(0, 3, -w * x1 * t.sin() + 0.3 * lam[1]);
+        set(1, 2, 0.2 * w * u);
+        set(2, 2, w * (1.0 + 0.2 * x2));
+        set(3, 3, -0.5 * w * x1 * x1 * t.cos());
+    }
+}
+
+/// Deterministic pseudo-random numbers in [lo, hi).
+struct Rng(u64);
+impl Rng {
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        self.0 ^= self.0 << 13;
+        self.0 ^= self.0 >> 7;
+        self.0 ^= self.0 << 17;
+        lo + (hi - lo) * ((self.0 >> 11) as f64 / (1u64 << 53) as f64)
+    }
+}
+
+fn uniform_mesh(n: usize) -> Vec<f64> {
+    let mut m: Vec<f64> = (0..=n).map(|i| i as f64 / n as f64).collect();
+    m[n] = 1.0;
+    m
+}
+
+/// A graded mesh (so that interval lengths differ).
+fn graded_mesh(n: usize) -> Vec<f64> {
+    (0..=n).map(|i| (i as f64 / n as f64).powf(1.3)).collect()
+}
+
+fn dense(entries: &[(usize, usize, f64)], rows: usize, cols: usize, mirror: bool) -> DMatrix<f64> {
+    let mut d = DMatrix::zeros(rows, cols);
+    for &(r, c, v) in entries {
+        d[(r, c)] += v;
+        if mirror && r != c {
+            d[(c, r)] += v;
+        }
+    }
+    d
+}
+
+fn central(mut f: impl FnMut(f64) -> f64, x: f64, h: f64) -> f64 {
+    // Richardson-extrapolated central difference.
+    let d = |h: f64, f: &mut dyn FnMut(f64) -> f64| (f(x + h) - f(x - h)) / (2.0 * h);
+    let (d1, d2) = (d(h, &mut f), d(h / 2.0, &mut f));
+    (4.0 * d2 - d1) / 3.0
+}
+
+fn pendulum_transcription(p: &Pendulum, free: bool) -> Transcription<'_, Pendulum> {
+    let horizon = if free {
+        Horizon::Free { t0: 0.3 }
+    } else {
+        Horizon::Fixed {
+            t0: 0.3,
+            length: 2.0,
+        }
+    };
+    let boundary = Boundary {
+        start: vec![(0, 0.5), (1, 0.0)],
+        end: vec![(0, 0.0)],
+    };
+    Transcription::new(p, boundary, horizon, graded_mesh(4)).expect("valid transcription")
+}
+
+#[test]
+fn nlp_derivatives_match_finite_differences() {
+    let prob = Pendulum { delta: 0.2 };
+    let mut rng = Rng(0x9e3779b97f4a7c15);
+    let mut worst = [0.0_f64; 3];
+    for free in [false, true] {
+        let tr = pendulum_transcription(&prob, free);
+        let (nv, nc) = (tr.n_var(), tr.n_con());
+        for _ in 0..3 {
+            let mut v: Vec<f64> = (0..nv).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            if let Some(i) = tr.length_index() {
+                v[i] = rng.uniform(1.0, 3.0);
+            }
+            let y: Vec<f64> = (0..nc).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            let g = tr.gradient(&v);
+            let a = dense(&tr.jacobian(&v), nc, nv, false);
+            let h = dense(&tr.lagrangian_hessian(&v, &y), nv, nv, true);
+            let lagr_grad = |v: &[f64]| -> Vec<f64> {
+                let mut r = tr.gradient(v);
+                for (row, col, val) in tr.jacobian(v) {
+                    r[col] += val * y[row];
+                }
+                r
+            };
+            for j in 0..nv {
+                let at = |x: f64| {
+                    let mut w = v.clone();
+                    w[j] = x;
+                    w
+                };
+                let fd = central(|x| tr.objective(&at(x)), v[j], 1e-4);
+                worst[0] = worst[0].max((fd - g[j]).abs() / (1.0 + g[j].abs()));
+                for r in 0..nc {
+                    let fd = central(|x| tr.constraints(&at(x))[r], v[j], 1e-4);
+                    worst[1] = worst[1].max((fd - a[(r, j)]).abs() / (1.0 + a[(r, j)].abs()));
+                }
+                for r in 0..nv {
+                    let fd = central(|x| lagr_grad(&at(x))[r], v[j], 1e-4);
+                    worst[2] = worst[2].max((fd - h[(r, j)]).abs() / (1.0 + h[(r, j)].abs()));
+                }
+            }
+        }
+    }
+    eprintln!(
+        "max relative FD mismatch: gradient {:.1e}, Jacobian {:.1e}, Hessian {:.1e}",
+        worst[0], worst[1], worst[2]
+    );
+    assert!(worst.iter().all(|&w| w < 1e-7), "FD mismatch {worst:?}");
+}
+
+/// Dense reference: number of negative eigenvalues of ZᵀHZ and the smallest generalized
+/// eigenvalue of (ZᵀHZ, ZᵀMZ), Z an orthonormal basis of null(A).
+fn dense_reduced(tr: &Transcription<'_, impl OcpProblem>, pt: &KktPoint) -> (usize, f64) {
+    let (nv, nc) = (tr.n_var(), tr.n_con());
+    let a = dense(&tr.jacobian(&pt.v), nc, nv, false);
+    let h = dense(&tr.lagrangian_hessian(&pt.v, &pt.y), nv, nv, true);
+    let ata = a.transpose() * &a;
+    let eig = SymmetricEigen::new(ata);
+    let scale = eig.eigenvalues.amax();
+    let cols: Vec<usize> = (0..nv)
+        .filter(|&i| eig.eigenvalues[i] < 1e-10 * scale)
+        .collect();
+    assert_eq!(cols.len(), nv - nc, "A has full row rank");
+    let z = eig.eigenvectors.select_columns(&cols);
+    let red = z.transpose() * &h * &z;
+    let red = (&red + red.transpose()) * 0.5;
+    let neg = SymmetricEigen::new(red.clone())
+        .eigenvalues
+        .iter()
+        .filter(|&&e| e < 0.0)
+        .count();
+    let m = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(tr.metric_diagonal(&pt.v)));
+    let mz = z.transpose() * m * &z;
+    let l = mz
+        .cholesky()
+        .expect("M is positive definite on null(A)")
+        .l();
+    let li = l.try_inverse().expect("invertible");
+    let g = &li * red * li.transpose();
+    let mu = SymmetricEigen::new((&g + g.transpose()) * 0.5)
+        .eigenvalues
+        .min();
+    (neg, mu)
+}
+
+#[test]
+fn inertia_and_margin_match_a_dense_null_space_computation() {
+    let prob = Pendulum { delta: 0.2 };
+    let mut rng = Rng(12345);
+    let opts = SecondOrderOptions {
+        margin_rtol: 1e-6,
+        ..Default::default()
+    };
+    let mut seen = [0usize; 2];
+    for free in [false, true] {
+        let tr = pendulum_transcription(&prob, free);
+        for trial in 0..6 {
+            // The inertia identity holds at any point with A of full rank, KKT or not.
+            let mut v: Vec<f64> = (0..tr.n_var()).map(|_| rng.uniform(-1.0, 1.0)).collect();
+            if let Some(i) = tr.length_index() {
+                v[i] = rng.uniform(1.0, 3.0);
+            }
+            let amp = if trial % 2 == 0 { 0.1 } else { 5.0 };
+            let y: Vec<f64> = (0..tr.n_con()).map(|_| rng.uniform(-amp, amp)).collect();
+            let pt = KktPoint { v, y };
+            let rep = second_order(&tr, &pt, &opts).expect("second-order test runs");
+            let (neg, mu) = dense_reduced(&tr, &pt);
+            let (lo, hi) = rep.margin.expect("margin bracketed");
+            eprintln!(
+                "free={free} trial {trial}: inertia {} (n = {}, m = {}), dense: {neg} negative, mu_min = {mu:.6e}, bracket [{lo:.6e}, {hi:.6e}]",
+                rep.inertia, rep.n_var, rep.n_con
+            );
+            assert_eq!(rep.negative_curvature_directions, neg);
+            assert_eq!(rep.verdict == Verdict::Certified, neg == 0);
+            assert!(
+                lo - 1e-9 * mu.abs() <= mu && mu <= hi + 1e-9 * mu.abs(),
+                "mu {mu} not in [{lo}, {hi}]"
+            );
+            seen[usize::from(neg == 0)] += 1;
+        }
+    }
+    assert!(
+        seen[0] > 0 && seen[1] > 0,
+        "both verdicts exercised: {seen:?}"
+    );
+}
+
+fn oscillator_transcription(
+    prob: &Oscillator,
+    t_len: f64,
+    n: usize,
+) -> Transcription<'_, Oscillator> {
+    let boundary = Boundary {
+        start: vec![(0, 0.0)],
+        end: vec![(0, 1.0)],
+    };
+    let horizon = Horizon::Fixed {
+        t0: 0.0,
+        length: t_len,
+    };
+    Transcription::new(prob, boundary, horizon, uniform_mesh(n)).expect("valid")
+}
+
+#[test]
+fn oscillator_minimum_and_saddle_are_told_apart() {
+    let prob = Oscillator { flip: false };
+    let pi = std::f64::consts::PI;
+    // (T, expected verdict, expected negative directions)
+    for (t_len, verdict, neg) in [
+        (2.0, Verdict::Certified, 0),
+        (3.0, Verdict::Certified, 0),
+        (4.0, Verdict::NotMinimum, 1),
+        (7.0, Verdict::NotMinimum, 2),
+    ] {
+        // Step 0.05 in time for every T.
+        let tr = oscillator_transcription(&prob, t_len, (20.0 * t_len) as usize);
+        let st = t_len.sin();
+        // The exact extremal (a KKT point of the continuous problem), as an indirect method
+        // would deliver it.
+        let v0 = tr.primal_from_fn(t_len, |t, z| {
+            z[0] = t.sin() / st;
+            z[1] = t.cos() / st;
+        });
+        let cert = certify(
+            &tr,
+            v0,
+            &NewtonOptions::default(),
+            &SecondOrderOptions::default(),
+        )
+        .expect("certificate");
+        let so = &cert.second_order;
+        let (lo, hi) = so.margin.expect("margin");
+        let exact = 1.0 - (t_len / pi).powi(2);
+        eprintln!(
+            "T = {t_len}: candidate stationarity {:.1e} feasibility {:.1e}; Newton {} its, displacement {:.1e}; inertia {}; {}; mu_min in [{lo:.5}, {hi:.5}], continuous 1 - (T/pi)^2 = {exact:.5}",
+            cert.candidate.relative_stationarity(),
+            cert.candidate.feasibility,
+            cert.newton_iterations,
+            cert.displacement,
+            so.inertia,
+            so.verdict.sentence()
+        );
+        assert_eq!(so.verdict, verdict);
+        assert_eq!(so.negative_curvature_directions, neg);
+        assert!(cert.kkt.relative_stationarity() < 1e-10 && cert.kkt.feasibility < 1e-10);
+        // The exact extremal is a KKT point of the discretization up to discretization error.
+        assert!(
+            cert.displacement < 1e-5 / st.abs(),
+            "displacement {}",
+            cert.displacement
+        );
+        assert!((0.5 * (lo + hi) - exact).abs() < 2e-3 * (1.0 + exact.abs()));
+        // The discrete multipliers are the costate π = −u (H = L + π u, H_u = u + π = 0).
+        let omega = tr.quadrature_weights();
+        let lam = tr.point_multipliers(&cert.point.y);
+        let mut worst = 0.0_f64;
+        for p in 0..tr.n_points() {
+            let t = tr.point_time(p, t_len);
+            worst = worst.max((lam[p] / omega[p] + t.cos() / st).abs());
+        }
+        eprintln!("  max |lambda_p/omega_p - pi(t_p)| = {worst:.1e}");
+        assert!(worst < 1e-5 / st.abs(), "costate mismatch {worst}");
+    }
+}
+
+#[test]
+fn a_maximizer_is_not_certified() {
+    // L = −(u² − x²)/2 for T = 2: the extremal maximizes; every direction curves down.
+    let prob = Oscillator { flip: true };
+    let tr = oscillator_transcription(&prob, 2.0, 20);
+    let v0 = tr.primal_from_fn(2.0, |t, z| {
+        z[0] = t.sin() / 2f64.sin();
+        z[1] = t.cos() / 2f64.sin();
+    });
+    let cert = certify(
+        &tr,
+        v0,
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .expect("certificate");
+    let so = &cert.second_order;
+    eprintln!(
+        "maximizer: inertia {}, {} negative directions, margin {:?}",
+        so.inertia, so.negative_curvature_directions, so.margin
+    );
+    assert_eq!(so.verdict, Verdict::NotMinimum);
+    // All of null(A) (dimension n − m = #controls − 1 here) curves down.
+    assert_eq!(so.negative_curvature_directions, tr.n_var() - tr.n_con());
+}
+
+#[test]
+fn free_time_optimum_is_found_and_certified() {
+    // ẋ = u, L = u²/2 + δ, x(0) = 0, x(T) = 1: u = 1/T, J = 1/(2T) + δT, T* = 1/√(2δ).
+    struct MinEnergyTime {
+        delta: f64,
+    }
+    impl OcpProblem for MinEnergyTime {
+        fn n_state(&self) -> usize {
+            1
+        }
+        fn n_control(&self) -> usize {
+            1
+        }
+        fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
+            f[0] = z[1];
+            f_z.copy_from_slice(&[0.0, 1.0]);
+            f_t[0] = 0.0;
+        }
+        fn running_cost(&self, _t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
+            l_z[0] = 0.0;
+            l_z[1] = z[1];
+            (0.5 * z[1] * z[1] + self.delta, 0.0)
+        }
+        fn lagrangian_hessian(&self, _t: f64, _z: &[f64], w: f64, _l: &[f64], h: &mut [f64]) {
+            h.fill(0.0);
+            h[4] = w;
+        }
+    }
+    let delta = 0.125;
+    let prob = MinEnergyTime { delta };
+    let boundary = Boundary {
+        start: vec![(0, 0.0)],
+        end: vec![(0, 1.0)],
+    };
+    let tr = Transcription::new(&prob, boundary, Horizon::Free { t0: 1.0 }, uniform_mesh(5))
+        .expect("valid");
+    let guess = 1.6; // T* = 2
+    let v0 = tr.primal_from_fn(guess, |t, z| {
+        z[0] = (t - 1.0) / guess;
+        z[1] = 1.0 / guess;
+    });
+    let cert = certify(
+        &tr,
+        v0,
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .expect("certificate");
+    let t_star = tr.length(&cert.point.v);
+    eprintln!(
+        "free time: T = {t_star:.12} (exact {:.12}), Newton {} its, {}, margin {:?}",
+        1.0 / (2.0 * delta).sqrt(),
+        cert.newton_iterations,
+        cert.second_order.verdict.sentence(),
+        cert.second_order.margin
+    );
+    assert!((t_star - 1.0 / (2.0 * delta).sqrt()).abs() < 1e-10);
+    assert_eq!(cert.second_order.verdict, Verdict::Certified);
+    assert!((tr.objective(&cert.point.v) - 2.0 * (2.0 * delta).sqrt() / 2.0).abs() < 1e-10);
+}
+
+#[test]
+fn least_squares_multipliers_vanish_residual_at_kkt_point() {
+    let prob = Oscillator { flip: false };
+    let tr = oscillator_transcription(&prob, 2.0, 10);
+    let v0 = tr.primal_from_fn(2.0, |t, z| {
+        z[0] = t.sin() / 2f64.sin();
+        z[1] = t.cos() / 2f64.sin();
+    });
+    let (pt, _) = kkt::newton(
+        &tr,
+        KktPoint {
+            y: kkt::least_squares_multipliers(&tr, &v0).expect("multipliers"),
+            v: v0,
+        },
+        &NewtonOptions::default(),
+    )
+    .expect("newton");
+    let y = kkt::least_squares_multipliers(&tr, &pt.v).expect("multipliers");
+    let r = kkt::residual(
+        &tr,
+        &KktPoint {
+            v: pt.v.clone(),
+            y: y.clone(),
+        },
+    );
+    assert!(r.relative_stationarity() < 1e-12, "{r:?}");
+    let diff = y
+        .iter()
+        .zip(&pt.y)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(diff < 1e-10, "multipliers differ by {diff}");
+}
