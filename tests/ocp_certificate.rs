@@ -10,7 +10,7 @@
 
 use nalgebra::{DMatrix, SymmetricEigen};
 use suslov::ocp::certify::second_order;
-use suslov::ocp::kkt::{self, KktPoint};
+use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
     certify, Boundary, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions, Transcription,
     Verdict,
@@ -256,7 +256,8 @@ fn inertia_and_margin_match_a_dense_null_space_computation() {
             let amp = if trial % 2 == 0 { 0.1 } else { 5.0 };
             let y: Vec<f64> = (0..tr.n_con()).map(|_| rng.uniform(-amp, amp)).collect();
             let pt = KktPoint { v, y };
-            let rep = second_order(&tr, &pt, &opts).expect("second-order test runs");
+            let matrix = KktMatrix::new(&tr).expect("pattern");
+            let rep = second_order(&tr, &matrix, &pt, &opts).expect("second-order test runs");
             let (neg, mu) = dense_reduced(&tr, &pt);
             let (lo, hi) = rep.margin.expect("margin bracketed");
             eprintln!(
@@ -451,16 +452,18 @@ fn least_squares_multipliers_vanish_residual_at_kkt_point() {
         z[0] = t.sin() / 2f64.sin();
         z[1] = t.cos() / 2f64.sin();
     });
+    let matrix = KktMatrix::new(&tr).expect("pattern");
     let (pt, _) = kkt::newton(
         &tr,
+        &matrix,
         KktPoint {
-            y: kkt::least_squares_multipliers(&tr, &v0).expect("multipliers"),
+            y: kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers"),
             v: v0,
         },
         &NewtonOptions::default(),
     )
     .expect("newton");
-    let y = kkt::least_squares_multipliers(&tr, &pt.v).expect("multipliers");
+    let y = kkt::least_squares_multipliers(&tr, &matrix, &pt.v).expect("multipliers");
     let r = kkt::residual(
         &tr,
         &KktPoint {

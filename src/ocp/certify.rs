@@ -26,8 +26,8 @@
 //! linearized constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`,
 //! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`).
 
-use super::inertia::{Inertia, InertiaError, LbltFactor, SymmetricPattern};
-use super::kkt::{self, KktError, KktPoint, KktResidual, NewtonOptions};
+use super::inertia::{Inertia, InertiaError, LbltFactor};
+use super::kkt::{self, KktError, KktMatrix, KktPoint, KktResidual, NewtonOptions};
 use super::problem::OcpProblem;
 use super::transcription::Transcription;
 
@@ -122,42 +122,36 @@ pub enum SecondOrderError {
     },
 }
 
-/// The shifted KKT matrices `K(σ)` of one point: pattern analysed once.
-struct ShiftedKkt {
-    pattern: SymmetricPattern,
+/// The shifted KKT matrices `K(σ)` of one point.
+struct ShiftedKkt<'k> {
+    kkt: &'k KktMatrix,
     /// Values at `σ = 0` in pattern order; the first `n_var` entries are the diagonal of the
-    /// variables (where `−σ M` goes).
+    /// unknowns (where `−σ M` goes).
     values: Vec<f64>,
     metric: Vec<f64>,
     n_var: usize,
     n_con: usize,
 }
 
-impl ShiftedKkt {
+impl<'k> ShiftedKkt<'k> {
     fn new<P: OcpProblem + ?Sized>(
         tr: &Transcription<'_, P>,
+        kkt: &'k KktMatrix,
         pt: &KktPoint,
-    ) -> Result<Self, InertiaError> {
+    ) -> Self {
         let (nv, nc) = (tr.n_var(), tr.n_con());
-        let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        let mut values = vec![0.0; nv];
-        for (r, c, v) in tr.lagrangian_hessian(&pt.v, &pt.y) {
-            entries.push((r, c));
-            values.push(v);
-        }
-        for (r, c, v) in tr.jacobian(&pt.v) {
-            entries.push((nv + r, c));
-            values.push(v);
-        }
-        // Eliminated in time order, each state paired with its collocation constraint
-        // (`Transcription::kkt_pivot_groups`).
-        Ok(Self {
-            pattern: SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?,
+        let values = kkt.values(
+            &vec![0.0; nv],
+            &tr.lagrangian_hessian(&pt.v, &pt.y),
+            &tr.jacobian(&pt.v),
+        );
+        Self {
+            kkt,
             values,
             metric: tr.metric_diagonal(&pt.v),
             n_var: nv,
             n_con: nc,
-        })
+        }
     }
 
     fn factorize(&self, sigma: f64) -> Result<LbltFactor, InertiaError> {
@@ -165,7 +159,7 @@ impl ShiftedKkt {
         for (v, d) in values.iter_mut().zip(&self.metric) {
             *v -= sigma * d;
         }
-        LbltFactor::factorize(&self.pattern, &values)
+        self.kkt.factorize(&values)
     }
 
     /// Number of eigenvalues `μ < σ` (`None` if `σ` is (numerically) an eigenvalue).
@@ -194,10 +188,11 @@ impl ShiftedKkt {
 /// The second-order test at a KKT point (see the module docs).
 pub fn second_order<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
     pt: &KktPoint,
     opts: &SecondOrderOptions,
 ) -> Result<SecondOrderReport, SecondOrderError> {
-    let kkt = ShiftedKkt::new(tr, pt)?;
+    let kkt = ShiftedKkt::new(tr, kkt, pt);
     let factor = kkt.factorize(0.0)?;
     let inertia = factor.inertia();
     let mut report = SecondOrderReport {
@@ -360,16 +355,17 @@ pub fn certify<P: OcpProblem + ?Sized>(
             got: v0.len(),
         });
     }
-    let y0 = kkt::least_squares_multipliers(tr, &v0)?;
+    let matrix = KktMatrix::new(tr)?;
+    let y0 = kkt::least_squares_multipliers(tr, &matrix, &v0)?;
     let start = KktPoint { v: v0, y: y0 };
     let candidate = kkt::residual(tr, &start);
-    let (point, newton) = kkt::newton(tr, start.clone(), newton_opts)?;
+    let (point, newton) = kkt::newton(tr, &matrix, start.clone(), newton_opts)?;
     let displacement = point
         .v
         .iter()
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
-    let second_order = second_order(tr, &point, opts)?;
+    let second_order = second_order(tr, &matrix, &point, opts)?;
     Ok(Certificate {
         candidate,
         newton_iterations: newton.residuals.len() - 1,

@@ -10,10 +10,7 @@
 //!     [ A   0  ]     A = ∂c/∂v
 //! ```
 
-use faer::linalg::solvers::SolveCore;
-use faer::sparse::{SparseColMat, Triplet};
-use faer::{Conj, MatMut};
-
+use super::inertia::{InertiaError, LbltFactor, SymmetricPattern};
 use super::problem::OcpProblem;
 use super::transcription::{Entry, Transcription};
 
@@ -47,12 +44,17 @@ impl KktResidual {
 /// Why a KKT computation failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum KktError {
-    /// The sparse LU of the KKT matrix failed or produced non-finite values.
-    #[error("the KKT matrix is singular to working precision ({what})")]
+    /// The KKT matrix could not be factorized or solved reliably.
+    #[error("the KKT matrix is singular to working precision ({what}): {reason}")]
     Singular {
         /// Which system.
         what: &'static str,
+        /// The factorization's reason.
+        reason: String,
     },
+    /// The pattern analysis failed.
+    #[error("KKT pattern analysis: {0}")]
+    Pattern(#[from] InertiaError),
     /// Newton's method did not reach the tolerance.
     #[error(
         "Newton's method on the KKT system did not converge in {iterations} iterations \
@@ -92,37 +94,85 @@ fn norm_inf(x: &[f64]) -> f64 {
     x.iter().fold(0.0_f64, |m, v| m.max(v.abs()))
 }
 
-/// Solves `[[D, Aᵀ], [A, 0]] [dv; dy] = rhs` in place, with `D` given as lower-triangle
-/// entries (mirrored here). General sparse LU (faer); the matrix is symmetric indefinite.
-fn solve_kkt(
+/// The KKT matrices `[[D, Aᵀ], [A, 0]]` of one transcription: the symmetric pattern
+/// (diagonal of the unknowns, Lagrangian Hessian, constraint Jacobian) analysed once, with the
+/// transcription's time-ordered pivot groups ([`Transcription::kkt_pivot_groups`]), and
+/// factorized by a pivoted `L B Lᵀ` ([`super::inertia`]) for every solve and inertia count.
+pub struct KktMatrix {
+    pattern: SymmetricPattern,
     n_var: usize,
     n_con: usize,
-    h_lower: &[Entry],
-    a: &[Entry],
+}
+
+impl KktMatrix {
+    /// The pattern of `tr`'s KKT matrices.
+    pub fn new<P: OcpProblem + ?Sized>(tr: &Transcription<'_, P>) -> Result<Self, KktError> {
+        let (nv, nc) = (tr.n_var(), tr.n_con());
+        // Positions do not depend on the point: take them at any point.
+        let v = tr.primal_from_fn(1.0, |_, z| z.fill(0.0));
+        let y = vec![0.0; nc];
+        let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
+        entries.extend(
+            tr.lagrangian_hessian(&v, &y)
+                .iter()
+                .map(|&(r, c, _)| (r, c)),
+        );
+        entries.extend(tr.jacobian(&v).iter().map(|&(r, c, _)| (nv + r, c)));
+        let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
+        Ok(Self {
+            pattern,
+            n_var: nv,
+            n_con: nc,
+        })
+    }
+
+    /// Values in pattern order: the diagonal `diag` (`n_var`, added to the Hessian's), the
+    /// Hessian entries `h` (lower triangle), the Jacobian `a` (both as the transcription
+    /// returns them).
+    pub fn values(&self, diag: &[f64], h: &[Entry], a: &[Entry]) -> Vec<f64> {
+        let mut values = Vec::with_capacity(self.n_var + h.len() + a.len());
+        values.extend_from_slice(diag);
+        values.extend(h.iter().map(|e| e.2));
+        values.extend(a.iter().map(|e| e.2));
+        values
+    }
+
+    /// A factorization of the matrix with `values`.
+    pub fn factorize(&self, values: &[f64]) -> Result<LbltFactor, InertiaError> {
+        LbltFactor::factorize(&self.pattern, values)
+    }
+
+    /// Number of unknowns.
+    pub fn n_var(&self) -> usize {
+        self.n_var
+    }
+
+    /// Number of constraints.
+    pub fn n_con(&self) -> usize {
+        self.n_con
+    }
+}
+
+/// Solves `K x = rhs` in place with a fresh factorization of `values`.
+fn solve_kkt(
+    kkt: &KktMatrix,
+    values: &[f64],
     rhs: &mut [f64],
     what: &'static str,
 ) -> Result<(), KktError> {
-    let order = n_var + n_con;
-    let mut trip = Vec::with_capacity(2 * h_lower.len() + 2 * a.len());
-    for &(r, c, v) in h_lower {
-        trip.push(Triplet::new(r, c, v));
-        if r != c {
-            trip.push(Triplet::new(c, r, v));
-        }
-    }
-    for &(r, c, v) in a {
-        trip.push(Triplet::new(n_var + r, c, v));
-        trip.push(Triplet::new(c, n_var + r, v));
-    }
-    let singular = || KktError::Singular { what };
-    let mat = SparseColMat::<usize, f64>::try_new_from_triplets(order, order, &trip)
-        .map_err(|_| singular())?;
-    let lu = mat.sp_lu().map_err(|_| singular())?;
-    lu.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(rhs, order, 1));
+    let singular = |e: InertiaError| KktError::Singular {
+        what,
+        reason: e.to_string(),
+    };
+    let factor = kkt.factorize(values).map_err(singular)?;
+    factor.solve_in_place(rhs).map_err(singular)?;
     if rhs.iter().all(|v| v.is_finite()) {
         Ok(())
     } else {
-        Err(singular())
+        Err(KktError::Singular {
+            what,
+            reason: "non-finite solution".into(),
+        })
     }
 }
 
@@ -130,23 +180,19 @@ fn solve_kkt(
 /// multipliers a primal point admits; exact if `v` is a KKT point and `A` has full rank).
 pub fn least_squares_multipliers<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
     v: &[f64],
 ) -> Result<Vec<f64>, KktError> {
     let (nv, nc) = (tr.n_var(), tr.n_con());
     // [[I, Aᵀ], [A, 0]] [r; y] = [−∇J; 0]  ⇒  r = −∇J − Aᵀy with A r = 0.
-    let identity: Vec<Entry> = (0..nv).map(|i| (i, i, 1.0)).collect();
+    let mut h = tr.lagrangian_hessian(v, &vec![0.0; nc]);
+    h.iter_mut().for_each(|e| e.2 = 0.0);
+    let values = kkt.values(&vec![1.0; nv], &h, &tr.jacobian(v));
     let mut rhs = vec![0.0; nv + nc];
     for (r, g) in rhs.iter_mut().zip(tr.gradient(v)) {
         *r = -g;
     }
-    solve_kkt(
-        nv,
-        nc,
-        &identity,
-        &tr.jacobian(v),
-        &mut rhs,
-        "least-squares multipliers",
-    )?;
+    solve_kkt(kkt, &values, &mut rhs, "least-squares multipliers")?;
     Ok(rhs[nv..].to_vec())
 }
 
@@ -179,10 +225,11 @@ pub struct NewtonReport {
 /// that is already close, such as an indirect solution). Returns the converged point.
 pub fn newton<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
     start: KktPoint,
     opts: &NewtonOptions,
 ) -> Result<(KktPoint, NewtonReport), KktError> {
-    let (nv, nc) = (tr.n_var(), tr.n_con());
+    let zeros = vec![0.0; tr.n_var()];
     let mut pt = start;
     let mut residuals = Vec::new();
     let mut it = 0;
@@ -205,14 +252,8 @@ pub fn newton<P: OcpProblem + ?Sized>(
         add_transpose_product(&a, &pt.y, &mut rhs);
         rhs.extend(tr.constraints(&pt.v));
         rhs.iter_mut().for_each(|r| *r = -*r);
-        solve_kkt(
-            nv,
-            nc,
-            &tr.lagrangian_hessian(&pt.v, &pt.y),
-            &a,
-            &mut rhs,
-            "Newton step",
-        )?;
+        let values = kkt.values(&zeros, &tr.lagrangian_hessian(&pt.v, &pt.y), &a);
+        solve_kkt(kkt, &values, &mut rhs, "Newton step")?;
         for (x, d) in pt.v.iter_mut().chain(pt.y.iter_mut()).zip(&rhs) {
             *x += d;
         }

@@ -329,7 +329,8 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         c
     }
 
-    /// The constraint Jacobian as entries `(constraint, unknown, value)`.
+    /// The constraint Jacobian as entries `(constraint, unknown, value)`; the positions are
+    /// the same for every `v`.
     pub fn jacobian(&self, v: &[f64]) -> Vec<Entry> {
         let (n, nz) = (self.n, self.nz());
         let t_len = self.length(v);
@@ -380,7 +381,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
     }
 
     /// The Hessian of the Lagrangian `ℒ = J + yᵀ c` at `(v, y)`, lower triangle only
-    /// (`row ≥ column`).
+    /// (`row ≥ column`). The positions are the same for every `(v, y)`.
     pub fn lagrangian_hessian(&self, v: &[f64], y: &[f64]) -> Vec<Entry> {
         let (n, nz) = (self.n, self.nz());
         let t_len = self.length(v);
@@ -403,10 +404,9 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 .lagrangian_hessian(t, z, omega[p], lp, &mut hess);
             for r in 0..nz {
                 for c in 0..=r {
-                    let val = t_len * hess[r * d + c];
-                    if val != 0.0 {
-                        out.push((p * nz + r, p * nz + c, val));
-                    }
+                    // Zeros are kept: the pattern is the same at every point (the KKT
+                    // pattern is analysed once).
+                    out.push((p * nz + r, p * nz + c, t_len * hess[r * d + c]));
                 }
             }
             if let Some(tc) = t_col {
