@@ -66,6 +66,9 @@ pub enum AppError {
     /// The problem file is invalid (names the field and the fix).
     #[error(transparent)]
     Config(#[from] ConfigError),
+    /// A command-line argument is invalid (says which and how to fix it).
+    #[error("{0}")]
+    InvalidArgument(String),
 }
 
 /// Sample a solution on a uniform grid of `[a, b]` with `Ω_d`.
@@ -342,9 +345,20 @@ pub struct CertifyJob {
     pub options: SolveOptions,
 }
 
-/// The cases of `suslov certify [CONFIG]`: the problem in `config`, or the paper's two.
-pub fn certify_jobs(config: Option<&Path>) -> Result<Vec<CertifyJob>, AppError> {
-    Ok(match config {
+/// The cases of `suslov certify [CONFIG]`: the problem in `config`, or the paper's two;
+/// `tolerance` overrides the final BVP tolerance (the mesh the certificate runs on).
+pub fn certify_jobs(
+    config: Option<&Path>,
+    tolerance: Option<f64>,
+) -> Result<Vec<CertifyJob>, AppError> {
+    if let Some(t) = tolerance {
+        if !(t > 0.0 && t.is_finite()) {
+            return Err(AppError::InvalidArgument(format!(
+                "--tolerance must be a positive number (e.g. 1e-8), got {t}"
+            )));
+        }
+    }
+    let mut jobs = match config {
         Some(path) => {
             let loaded = config::load(path)?;
             vec![CertifyJob {
@@ -361,7 +375,11 @@ pub fn certify_jobs(config: Option<&Path>) -> Result<Vec<CertifyJob>, AppError> 
                 options: SolveOptions::default(),
             })
             .collect(),
-    })
+    };
+    if let Some(t) = tolerance {
+        jobs.iter_mut().for_each(|j| j.options.tol = t);
+    }
+    Ok(jobs)
 }
 
 /// `suslov certify`: solve each case and certify the solution on its own mesh. A failed

@@ -60,6 +60,10 @@ enum Command {
         /// Also write the reports as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
+        /// Final BVP tolerance of the solves (the mesh the certificate runs on); default:
+        /// the problem's (1e-8 for the paper).
+        #[arg(long, allow_hyphen_values = true)]
+        tolerance: Option<f64>,
     },
 }
 
@@ -256,8 +260,12 @@ fn main() -> ExitCode {
                 }
             };
         }
-        Command::Certify { config, json } => {
-            let result = app::certify_jobs(config.as_deref()).and_then(|jobs| {
+        Command::Certify {
+            config,
+            json,
+            tolerance,
+        } => {
+            let result = app::certify_jobs(config.as_deref(), tolerance).and_then(|jobs| {
                 app::run_certify(&jobs, json.as_deref(), &mut |e| reporter.event(e))
             });
             return match result {

@@ -64,6 +64,9 @@ pub struct CertificateReport {
     /// Backward error of the `LBLᵀ` factorization the verdict rests on.
     #[serde(with = "finite_or_null")]
     pub backward_error: f64,
+    /// Set when the certified point is visibly different from the computed solution.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub warning: Option<String>,
     /// Wall time of the solve, seconds.
     pub solve_seconds: f64,
     /// Wall time of the certificate, seconds.
@@ -100,6 +103,7 @@ impl CertificateReport {
             margin_low: so.margin.map(|m| m.0),
             margin_high: so.margin.map(|m| m.1),
             backward_error: so.backward_error,
+            warning: c.warning(),
             ..Default::default()
         }
     }
@@ -165,6 +169,10 @@ impl CertificateReport {
             be = self.backward_error,
             ss = self.solve_seconds,
             cs2 = self.certify_seconds,
-        )
+        ) + &self
+            .warning
+            .as_ref()
+            .map(|w| format!("  warning: {w}\n"))
+            .unwrap_or_default()
     }
 }

@@ -139,12 +139,32 @@ pub struct SuslovCertificate {
     pub terminal_time: f64,
     /// The cost of the certified point (discrete, Lobatto quadrature).
     pub cost: f64,
+    /// `‖v* − v₀‖∞ / max(1, ‖v₀‖∞)`: how far the certified point is from the indirect
+    /// solution, relative to its size.
+    pub relative_displacement: f64,
 }
+
+/// Above this relative displacement the certified KKT point is not the computed solution
+/// to plotting accuracy, and [`SuslovCertificate::warning`] says so.
+pub const DISPLACEMENT_WARNING: f64 = 1e-3;
 
 impl SuslovCertificate {
     /// The verdict.
     pub fn verdict(&self) -> Verdict {
         self.certificate.second_order.verdict
+    }
+
+    /// A warning when the verdict is about a point visibly different from the computed
+    /// solution (the mesh is too coarse for the discretized problem to represent it).
+    pub fn warning(&self) -> Option<String> {
+        (self.relative_displacement > DISPLACEMENT_WARNING).then(|| {
+            format!(
+                "the certified KKT point of the discretized problem is {:.1e} (relative) away from \
+                 the computed solution: the mesh ({} intervals) is too coarse for the verdict to \
+                 describe it; solve with a smaller tolerance",
+                self.relative_displacement, self.intervals
+            )
+        })
     }
 }
 
@@ -192,6 +212,7 @@ pub fn certify(
     if tr.length_index().is_some() {
         v0.push(sol.t_span);
     }
+    let size = v0.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
     let certificate = ocp::certify(&tr, v0, newton, opts)?;
     // Multipliers against κ: π(t_p) from the indirect solution.
     let t_len = tr.length(&certificate.point.v);
@@ -215,6 +236,7 @@ pub fn certify(
         free_time: tr.horizon().is_free(),
         terminal_time: sol.problem.t0 + t_len,
         cost: tr.objective(&certificate.point.v),
+        relative_displacement: certificate.displacement / size,
         certificate,
     })
 }
