@@ -992,7 +992,7 @@ impl LbltFactor {
 
     /// Estimated spectral radius `ρ` of `I − M⁻¹K`, `M = D⁻¹Pᵀ L B Lᵀ P D⁻¹` the computed
     /// factorization (deflated zero rows excluded): the contraction factor of iterative
-    /// refinement, estimated by [`CONTRACTION_ITERATIONS`] power iterations from a
+    /// refinement, estimated by `CONTRACTION_ITERATIONS` power iterations from a
     /// pseudo-random vector (the largest ratio is kept).
     ///
     /// Why it matters: with `E = M − K`, if `K + tE` were singular for some `t ∈ [0, 1)`, then

@@ -4,7 +4,7 @@
 //! - [`problem`]: the problem (dynamics, running cost, their derivatives and Hessians).
 //! - [`transcription`]: the NLP on a mesh (4-stage Lobatto IIIA, as the BVP solver).
 //! - [`kkt`]: KKT residuals, least-squares multipliers, Newton's method on the KKT system.
-//! - [`certify`]: the second-order test (inertia of the KKT matrix) and its margin.
+//! - [`mod@certify`]: the second-order test (inertia of the KKT matrix) and its margin.
 //! - [`inertia`]: inertia (numbers of positive, negative and zero eigenvalues) of sparse
 //!   symmetric (indefinite) matrices through an `L B Lᵀ` factorization.
 

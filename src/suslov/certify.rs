@@ -18,7 +18,7 @@
 //!    the displacement is reported. The discrete multipliers, read as costates
 //!    (`λ_p/ω_p`), are compared with the classical costates `π` computed from the solution's
 //!    `κ` (`classical_costates`): the multipliers *are* κ, up to discretization error.
-//! 4. **Second order** ([`crate::ocp::certify`]): the inertia of the KKT matrix decides
+//! 4. **Second order** ([`mod@crate::ocp::certify`]): the inertia of the KKT matrix decides
 //!    whether the reduced Hessian is positive definite; bisection gives its smallest
 //!    eigenvalue in the `∫|δξ̇|² dt + |δξ(a)|² (+ δb²)` metric.
 
