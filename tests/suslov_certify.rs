@@ -145,3 +145,82 @@ fn certify_job_writes_json_and_says_the_verdict() {
         .expect("rejected");
     assert!(err.to_string().contains("--tolerance"));
 }
+
+/// The coarse-mesh "no" above, against an independent dense computation: an orthonormal
+/// null-space basis Z of the constraint Jacobian (eigenvectors of AᵀA) and the eigenvalues of
+/// ZᵀHZ in the metric M at the same KKT point.
+#[test]
+fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
+    use nalgebra::{DMatrix, DVector, SymmetricEigen};
+    use suslov::ocp::certify::second_order;
+    use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
+    use suslov::suslov::certify::{transcription, SuslovOcp};
+
+    let problem = paper::problem(1.0);
+    let opts = SolveOptions {
+        tol: 1e-4,
+        ..Default::default()
+    };
+    let sol = solve(&problem, &opts, &mut |_| {}).expect("solves");
+    let ocp = SuslovOcp::new(&sol.problem);
+    let tr = transcription(&ocp, &sol).expect("transcription");
+    let mut v0: Vec<f64> = Vec::new();
+    for y in sol.bvp.collocation_values().chunks_exact(12) {
+        v0.extend_from_slice(&y[..9]);
+    }
+    v0.push(sol.t_span);
+    let matrix = KktMatrix::new(&tr).expect("pattern");
+    let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
+    let (pt, _) = kkt::newton(
+        &tr,
+        &matrix,
+        KktPoint { v: v0, y: y0 },
+        &NewtonOptions::default(),
+    )
+    .expect("KKT point");
+    let so_opts = SecondOrderOptions {
+        margin_rtol: 1e-5,
+        ..Default::default()
+    };
+    let rep = second_order(&tr, &matrix, &pt, &so_opts).expect("second order");
+
+    let (nv, nc) = (tr.n_var(), tr.n_con());
+    let mut a = DMatrix::<f64>::zeros(nc, nv);
+    for (r, c, x) in tr.jacobian(&pt.v) {
+        a[(r, c)] += x;
+    }
+    let mut h = DMatrix::<f64>::zeros(nv, nv);
+    for (r, c, x) in tr.lagrangian_hessian(&pt.v, &pt.y) {
+        h[(r, c)] += x;
+        if r != c {
+            h[(c, r)] += x;
+        }
+    }
+    let ata = SymmetricEigen::new(a.transpose() * &a);
+    let scale = ata.eigenvalues.amax();
+    let cols: Vec<usize> = (0..nv)
+        .filter(|&i| ata.eigenvalues[i] < 1e-12 * scale)
+        .collect();
+    assert_eq!(cols.len(), nv - nc, "A has full row rank");
+    let z = ata.eigenvectors.select_columns(&cols);
+    let red = z.transpose() * &h * &z;
+    let m = DMatrix::from_diagonal(&DVector::from_vec(tr.metric_diagonal(&pt.v)));
+    let l = (z.transpose() * m * &z)
+        .cholesky()
+        .expect("M > 0 on null(A)")
+        .l();
+    let li = l.try_inverse().expect("invertible");
+    let g = &li * red * li.transpose();
+    let ev = SymmetricEigen::new((&g + g.transpose()) * 0.5).eigenvalues;
+    let negative = ev.iter().filter(|&&e| e < 0.0).count();
+    let mu = ev.min();
+    let (lo, hi) = rep.margin.expect("margin");
+    eprintln!(
+        "{} intervals: sparse {} negative directions, mu_min in [{lo:.6}, {hi:.6}]; dense {negative} negative, mu_min = {mu:.6}",
+        tr.n_intervals(),
+        rep.negative_curvature_directions
+    );
+    assert_eq!(rep.verdict, Verdict::NotMinimum);
+    assert_eq!(rep.negative_curvature_directions, negative);
+    assert!(lo - 1e-6 <= mu && mu <= hi + 1e-6);
+}
