@@ -336,6 +336,19 @@ fn oscillator_minimum_and_saddle_are_told_apart() {
         );
         assert_eq!(so.verdict, verdict);
         assert_eq!(so.negative_curvature_directions, neg);
+        // Jacobi's condition, discretely: the first conjugate point is at π when T > π.
+        let conj = cert.conjugate.first;
+        eprintln!(
+            "  first conjugate point {conj:?} ({} factorizations)",
+            cert.conjugate.factorizations
+        );
+        match conj {
+            None => assert!(t_len < pi),
+            Some(c) => {
+                assert!(t_len > pi);
+                assert!(c.previous < pi + 0.01 && pi - 0.01 < c.time, "{c:?}");
+            }
+        }
         assert!(cert.kkt.relative_stationarity() < 1e-10 && cert.kkt.feasibility < 1e-10);
         // The exact extremal is a KKT point of the discretization up to discretization error.
         assert!(
@@ -381,6 +394,8 @@ fn a_maximizer_is_not_certified() {
     assert_eq!(so.verdict, Verdict::NotMinimum);
     // All of null(A) (dimension n − m = #controls − 1 here) curves down.
     assert_eq!(so.negative_curvature_directions, tr.n_var() - tr.n_con());
+    // ... already on the first interval.
+    assert_eq!(cert.conjugate.first.expect("conjugate point").node, 1);
 }
 
 #[test]

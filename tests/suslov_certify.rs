@@ -70,6 +70,8 @@ fn assert_certified(cert: &SuslovCertificate) {
     );
     assert!(cert.costate_mismatch < 1e-5, "{}", cert.costate_mismatch);
     assert!(cert.warning().is_none());
+    // Jacobi's condition (a consequence of SOSC): no conjugate point up to b.
+    assert!(cert.certificate.conjugate.first.is_none());
 }
 
 #[test]
@@ -105,6 +107,10 @@ fn paper_eta_1_is_certified_but_not_on_a_too_coarse_mesh() {
     );
     assert!(so.margin.expect("margin").1 < 0.0);
     assert!(coarse.warning().is_some());
+    // Variations with fixed ends already lower the cost on part of [a, b]: a conjugate point.
+    let conj = coarse.certificate.conjugate.first.expect("conjugate point");
+    eprintln!("coarse mesh: first conjugate point {conj:?}");
+    assert!(conj.time > problem.t0 && conj.time < coarse.terminal_time);
 }
 
 #[test]

@@ -26,6 +26,7 @@
 //! linearized constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`,
 //! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`).
 
+use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
 use super::kkt::{self, KktError, KktMatrix, KktPoint, KktResidual, NewtonOptions};
 use super::problem::OcpProblem;
@@ -316,6 +317,9 @@ pub struct Certificate {
     pub point: KktPoint,
     /// The second-order test at that point.
     pub second_order: SecondOrderReport,
+    /// Where the second variation first loses positivity among variations with fixed ends
+    /// (the discrete conjugate point; [`super::conjugate`]).
+    pub conjugate: ConjugateReport,
 }
 
 /// Why [`certify`] could not give a verdict.
@@ -366,6 +370,7 @@ pub fn certify<P: OcpProblem + ?Sized>(
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
     let second_order = second_order(tr, &matrix, &point, opts)?;
+    let conjugate = first_conjugate_point(tr, &point)?;
     Ok(Certificate {
         candidate,
         newton_iterations: newton.residuals.len() - 1,
@@ -373,5 +378,6 @@ pub fn certify<P: OcpProblem + ?Sized>(
         displacement,
         point,
         second_order,
+        conjugate,
     })
 }

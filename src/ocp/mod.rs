@@ -5,10 +5,12 @@
 //! - [`transcription`]: the NLP on a mesh (4-stage Lobatto IIIA, as the BVP solver).
 //! - [`kkt`]: KKT residuals, least-squares multipliers, Newton's method on the KKT system.
 //! - [`mod@certify`]: the second-order test (inertia of the KKT matrix) and its margin.
+//! - [`conjugate`]: the discrete conjugate point (where positivity is first lost in time).
 //! - [`inertia`]: inertia (numbers of positive, negative and zero eigenvalues) of sparse
 //!   symmetric (indefinite) matrices through an `L B Lᵀ` factorization.
 
 pub mod certify;
+pub mod conjugate;
 pub mod inertia;
 pub mod kkt;
 pub mod problem;

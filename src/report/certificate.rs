@@ -61,6 +61,10 @@ pub struct CertificateReport {
     /// Upper end of that bracket.
     #[serde(with = "opt_finite_or_null")]
     pub margin_high: Option<f64>,
+    /// The first discrete conjugate point `t_j` (variations with fixed ends on `[a, t_j]`
+    /// lower the cost), `null` if there is none up to `b`.
+    #[serde(with = "opt_finite_or_null")]
+    pub conjugate_time: Option<f64>,
     /// Backward error of the `LBLᵀ` factorization the verdict rests on.
     #[serde(with = "finite_or_null")]
     pub backward_error: f64,
@@ -103,6 +107,7 @@ impl CertificateReport {
             margin_low: so.margin.map(|m| m.0),
             margin_high: so.margin.map(|m| m.1),
             backward_error: so.backward_error,
+            conjugate_time: c.certificate.conjugate.first.map(|p| p.time),
             warning: c.warning(),
             ..Default::default()
         }
@@ -146,6 +151,7 @@ impl CertificateReport {
              \x20 KKT inertia (+{p}, -{n}, 0x{z}); expected (+{nv}, -{nc}, 0x0) for a minimum; \
              {neg} negative curvature direction(s)\n\
              \x20 smallest eigenvalue of the reduced Hessian: {margin}\n\
+             \x20 first conjugate point (fixed-end variations): {conj}\n\
              \x20 LBL^T backward error {be:.1e}; {ss:.2} s solve, {cs2:.2} s certificate\n",
             name = self.name,
             msg = self.message,
@@ -167,6 +173,10 @@ impl CertificateReport {
             z = self.inertia[2],
             neg = self.negative_curvature_directions,
             be = self.backward_error,
+            conj = match self.conjugate_time {
+                Some(t) => format!("at t = {t:.4}"),
+                None => "none up to b".to_string(),
+            },
             ss = self.solve_seconds,
             cs2 = self.certify_seconds,
         ) + &self

@@ -1,0 +1,141 @@
+//! Discrete conjugate points: *where* in time the second variation first loses positivity.
+//!
+//! Jacobi's condition in discrete form. For a mesh node `t_j`, restrict the second variation
+//! at a KKT point to the variations supported on `[t0, t_j]`: `δz_p = 0` at every collocation
+//! point from `t_j` on (so `δx(t_j) = 0`: the variation rejoins the extremal there) and
+//! `δT = 0`. They are admissible variations of the full problem (extended by zero), so its
+//! KKT matrix restricted to them is a principal submatrix `K_j` — the unknowns of the points
+//! before `t_j`, the collocation constraints of the intervals before `t_j` and the start
+//! conditions — and, as in [`super::certify`], `K_j` has `m_j` negative eigenvalues plus one
+//! per direction of negative curvature. The first node where that excess is positive is the
+//! discrete **conjugate point**: the smallest horizon over which a variation with fixed ends
+//! lowers the cost.
+//!
+//! The excess grows with `j` (more variations), so a bisection over the nodes finds the first
+//! one with `⌈log₂ N⌉ + 1` factorizations. A certified minimum has no conjugate point (its
+//! variations include all of these); a point that is not a minimum may have one (the oscillator
+//! `ẋ = u`, `L = (u² − x²)/2` has it at `t = π`) or not (when negative curvature needs the
+//! free end data, `δx(b)` or `δT`). Zero eigenvalues of `K_j` are attributed to dependent
+//! constraints, not to curvature (see `excess_at`): the test reports strict negative curvature.
+
+use super::certify::SecondOrderError;
+use super::inertia::{LbltFactor, SymmetricPattern};
+use super::kkt::KktPoint;
+use super::problem::OcpProblem;
+use super::transcription::Transcription;
+
+/// The first discrete conjugate point, if any.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConjugatePoint {
+    /// Mesh node index `j` (`1..=N`).
+    pub node: usize,
+    /// Its time `t_j`.
+    pub time: f64,
+    /// The time of the node before it: the conjugate point lies in `(previous, time]`.
+    pub previous: f64,
+}
+
+/// The outcome of [`first_conjugate_point`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ConjugateReport {
+    /// The first conjugate point, `None` if there is none up to the last node.
+    pub first: Option<ConjugatePoint>,
+    /// Factorizations done.
+    pub factorizations: usize,
+}
+
+/// The restricted KKT matrix `K_j` (see the module docs) and its excess of negative
+/// eigenvalues over the constraints.
+fn excess_at<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    entries: &[(usize, usize, f64)],
+    groups: &[Vec<usize>],
+    j: usize,
+) -> Result<Option<usize>, SecondOrderError> {
+    let (n, nz, nv) = (tr.n_state(), tr.nz(), tr.n_var());
+    let stage_rows = 3 * tr.n_intervals() * n;
+    let n_start = tr.boundary().start.len();
+    // Kept: unknowns of the points 0..3j, constraints of the intervals 0..j, start rows.
+    let kept_var = 3 * j * nz;
+    let kept_con = 3 * j * n;
+    let new_index = |i: usize| -> Option<usize> {
+        if i < kept_var {
+            Some(i)
+        } else if i >= nv && i < nv + kept_con {
+            Some(kept_var + (i - nv))
+        } else if i >= nv + stage_rows && i < nv + stage_rows + n_start {
+            Some(kept_var + kept_con + (i - nv - stage_rows))
+        } else {
+            None
+        }
+    };
+    let size = kept_var + kept_con + n_start;
+    let mut pattern = Vec::new();
+    let mut values = Vec::new();
+    for &(r, c, v) in entries {
+        if let (Some(r), Some(c)) = (new_index(r), new_index(c)) {
+            pattern.push((r, c));
+            values.push(v);
+        }
+    }
+    let sub_groups: Vec<Vec<usize>> = groups
+        .iter()
+        .map(|g| g.iter().filter_map(|&i| new_index(i)).collect::<Vec<_>>())
+        .filter(|g| !g.is_empty())
+        .collect();
+    let pattern = SymmetricPattern::with_groups(size, &pattern, &sub_groups)?;
+    let inertia = LbltFactor::factorize(&pattern, &values)?.inertia();
+    // Zero eigenvalues are counted with the constraints: fixing the whole state at `t_j` can
+    // make the constraints dependent (a conserved quantity of the dynamics, such as Suslov's
+    // ⟨Ω, ξ⟩, is fixed at `t_j` by the start data already), which shows as zero eigenvalues,
+    // not as curvature.
+    Ok((inertia.negative + inertia.zero).checked_sub(kept_con + n_start))
+}
+
+/// The first discrete conjugate point of the KKT point `pt` (see the module docs).
+pub fn first_conjugate_point<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    pt: &KktPoint,
+) -> Result<ConjugateReport, SecondOrderError> {
+    let nv = tr.n_var();
+    let mut entries: Vec<(usize, usize, f64)> = (0..nv).map(|i| (i, i, 0.0)).collect();
+    entries.extend(tr.lagrangian_hessian(&pt.v, &pt.y));
+    entries.extend(
+        tr.jacobian(&pt.v)
+            .into_iter()
+            .map(|(r, c, v)| (nv + r, c, v)),
+    );
+    let groups = tr.kkt_pivot_groups();
+    let mut factorizations = 0;
+    let conjugate = |j: usize, count: &mut usize| -> Result<bool, SecondOrderError> {
+        *count += 1;
+        Ok(excess_at(tr, &entries, &groups, j)?.is_some_and(|e| e > 0))
+    };
+    let last = tr.n_intervals();
+    if !conjugate(last, &mut factorizations)? {
+        return Ok(ConjugateReport {
+            first: None,
+            factorizations,
+        });
+    }
+    // Invariant: no conjugate point at `lo` (0: no variation at all), one at `hi`.
+    let (mut lo, mut hi) = (0, last);
+    while hi - lo > 1 {
+        let mid = (lo + hi) / 2;
+        if conjugate(mid, &mut factorizations)? {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    let t_len = tr.length(&pt.v);
+    let time = |j: usize| tr.horizon().t0() + tr.mesh()[j] * t_len;
+    Ok(ConjugateReport {
+        first: Some(ConjugatePoint {
+            node: hi,
+            time: time(hi),
+            previous: time(lo),
+        }),
+        factorizations,
+    })
+}
