@@ -53,6 +53,11 @@ pub enum AppEvent<'a> {
     CaseFinished(&'a CaseSummary),
     /// A case was certified (or not).
     Certified(&'a CertificateReport),
+    /// A case of a job without a summary (the rank test along a trajectory) ended.
+    CaseEnded {
+        /// Case name.
+        name: &'a str,
+    },
     /// A file was written.
     Wrote(&'a Path),
 }
@@ -441,4 +446,88 @@ pub fn run_certify(
         events(AppEvent::Wrote(path));
     }
     Ok(reports)
+}
+
+/// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the
+/// accessibility rank test ([`crate::suslov::controllability`]) at `points` times along the
+/// optimal trajectory. Returns the text for people.
+pub fn run_rank_along(
+    jobs: &[CertifyJob],
+    points: usize,
+    rtol: f64,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<String, AppError> {
+    use crate::suslov::controllability as c;
+    if points < 2 {
+        return Err(AppError::InvalidArgument(format!(
+            "--points must be at least 2, got {points}"
+        )));
+    }
+    let mut text = String::new();
+    for job in jobs {
+        events(AppEvent::CaseStarted { name: &job.name });
+        let sol = match solve::solve(&job.problem, &job.options, &mut |e| {
+            events(AppEvent::Solve(e))
+        }) {
+            Ok(sol) => sol,
+            Err(e) => {
+                text += &format!("case {}: the solve failed: {e}\n", job.name);
+                events(AppEvent::CaseEnded { name: &job.name });
+                continue;
+            }
+        };
+        let (a, b) = (sol.problem.t0, sol.terminal_time());
+        let times: Vec<f64> = (0..points)
+            .map(|k| a + (b - a) * k as f64 / (points - 1) as f64)
+            .collect();
+        // The solution satisfies ⟨Ω, ξ⟩ = 0 to ~1e-10, and off M the rank is 5 with
+        // σ₅ ∝ |⟨Ω, ξ⟩|: test the states of M nearest to it (ξ projected onto Ω^⊥) and report
+        // the violation separately.
+        let mut violation = 0.0_f64;
+        let states: Vec<(f64, nalgebra::Vector3<f64>, nalgebra::Vector3<f64>)> = times
+            .iter()
+            .map(|&t| {
+                let y = sol.state(t);
+                let om = nalgebra::Vector3::new(y[0], y[1], y[2]);
+                let xi = nalgebra::Vector3::new(y[3], y[4], y[5]);
+                let c = om.dot(&xi);
+                violation = violation.max(c.abs());
+                (
+                    t,
+                    om,
+                    xi - om * (c / om.norm_squared().max(f64::MIN_POSITIVE)),
+                )
+            })
+            .collect();
+        match c::rank_along(&sol.problem.inertia, &states, rtol) {
+            Ok(r) => {
+                text += &format!(
+                    "case {}: rank of V {} at all {} times of [{a}, {b:.6}] (dim M = 4){}\n\
+                     \x20 smallest significant singular value {:.4e} (t = {:.4}); largest \
+                     sigma_(rank+1)/sigma_rank {:.1e}; max |f| {:.4}; the solution's max \
+                     |<Omega, xi>| {:.1e} (xi projected onto Omega^perp for the test)\n",
+                    job.name,
+                    if r.min_rank == r.max_rank {
+                        format!("= {}", r.min_rank)
+                    } else {
+                        format!("in {}..={}", r.min_rank, r.max_rank)
+                    },
+                    r.points,
+                    if r.min_rank == 4 && r.max_rank == 4 {
+                        ": accessible along the whole optimal trajectory"
+                    } else {
+                        ""
+                    },
+                    r.min_significant,
+                    r.t_min_significant,
+                    r.max_gap,
+                    r.max_drift_norm,
+                    violation,
+                );
+            }
+            Err(e) => text += &format!("case {}: rank test failed: {e}\n", job.name),
+        }
+        events(AppEvent::CaseEnded { name: &job.name });
+    }
+    Ok(text)
 }

@@ -91,6 +91,13 @@ struct ControllabilityArgs {
     /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1.
     #[arg(long, default_value_t = suslov::suslov::controllability::RANK_RTOL)]
     rtol: f64,
+    /// Instead: solve `paper` (both cases) or a problem file and evaluate the rank along the
+    /// optimal trajectory (Omega(t), xi(t)) at --points times.
+    #[arg(long, conflicts_with_all = ["omega", "xi"])]
+    along: Option<PathBuf>,
+    /// Times sampled along the trajectory (with --along).
+    #[arg(long, default_value_t = 401, requires = "along")]
+    points: usize,
 }
 
 fn run_controllability(a: &ControllabilityArgs) -> Result<String, suslov::suslov::SuslovError> {
@@ -214,6 +221,11 @@ impl Reporter {
                     c.name, c.status, c.terminal_time, c.cost, c.max_abs_constraint, c.mesh_nodes, c.wall_seconds
                 ));
             }
+            AppEvent::CaseEnded { .. } => {
+                if let Some(bar) = self.bar.take() {
+                    bar.finish_and_clear();
+                }
+            }
             AppEvent::Certified(r) => {
                 if let Some(bar) = self.bar.take() {
                     bar.finish_and_clear();
@@ -248,6 +260,23 @@ fn main() -> ExitCode {
         terminal: std::io::stderr().is_terminal(),
     };
     let (result, out) = match cli.command {
+        Command::Controllability(a) if a.along.is_some() => {
+            let along = a.along.as_deref().unwrap_or(std::path::Path::new("paper"));
+            let config = (along != std::path::Path::new("paper")).then_some(along);
+            let result = app::certify_jobs(config, None).and_then(|jobs| {
+                app::run_rank_along(&jobs, a.points, a.rtol, &mut |e| reporter.event(e))
+            });
+            return match result {
+                Ok(text) => {
+                    print!("{text}");
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::FAILURE
+                }
+            };
+        }
         Command::Controllability(a) => {
             return match run_controllability(&a) {
                 Ok(table) => {

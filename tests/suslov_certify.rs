@@ -230,3 +230,16 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
     assert_eq!(rep.negative_curvature_directions, negative);
     assert!(lo - 1e-6 <= mu && mu <= hi + 1e-6);
 }
+
+/// `suslov controllability --along FILE`: the accessibility rank along a solved trajectory.
+#[test]
+fn rank_along_a_solved_trajectory_is_four() {
+    let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml");
+    let jobs = suslov::app::certify_jobs(Some(&config), None).expect("jobs");
+    let text = suslov::app::run_rank_along(&jobs, 51, 1e-9, &mut |_| {}).expect("runs");
+    eprintln!("{text}");
+    assert!(text.contains("rank of V = 4 at all 51 times"), "{text}");
+    assert!(text.contains("accessible along the whole optimal trajectory"));
+    let err = suslov::app::run_rank_along(&jobs, 1, 1e-9, &mut |_| {}).expect_err("rejected");
+    assert!(err.to_string().contains("--points"));
+}

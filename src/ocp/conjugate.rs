@@ -6,7 +6,7 @@
 //! `δT = 0`. They are admissible variations of the full problem (extended by zero), so its
 //! KKT matrix restricted to them is a principal submatrix `K_j` — the unknowns of the points
 //! before `t_j`, the collocation constraints of the intervals before `t_j` and the start
-//! conditions — and, as in [`super::certify`], `K_j` has `m_j` negative eigenvalues plus one
+//! conditions — and, as in [`mod@super::certify`], `K_j` has `m_j` negative eigenvalues plus one
 //! per direction of negative curvature. The first node where that excess is positive is the
 //! discrete **conjugate point**: the smallest horizon over which a variation with fixed ends
 //! lowers the cost.
