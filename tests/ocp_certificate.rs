@@ -8,7 +8,8 @@
 //!   π), with margin `μ_min → 1 − (T/π)²`: the certificate must say yes, and no;
 //! - a free-time problem with optimal `T* = 1/√(2δ)`.
 
-use nalgebra::{DMatrix, SymmetricEigen};
+mod ocpkit;
+use ocpkit::{dense, dense_reduced};
 use suslov::ocp::certify::second_order;
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
@@ -16,12 +17,26 @@ use suslov::ocp::{
     Verdict,
 };
 
-/// `ẋ = u`, `L = (u² − x²)/2` (or `−u²/2 − …` when `flip`, a maximization in disguise).
-struct Oscillator {
-    flip: bool,
+/// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
+/// maximization in disguise (`s = −1`), and a minimum-energy transfer with a price on time
+/// (`k = 0`, `δ > 0`).
+struct Quadratic {
+    sign: f64,
+    k: f64,
+    delta: f64,
 }
 
-impl OcpProblem for Oscillator {
+impl Quadratic {
+    fn oscillator(flip: bool) -> Self {
+        Self {
+            sign: if flip { -1.0 } else { 1.0 },
+            k: 1.0,
+            delta: 0.0,
+        }
+    }
+}
+
+impl OcpProblem for Quadratic {
     fn n_state(&self) -> usize {
         1
     }
@@ -34,16 +49,18 @@ impl OcpProblem for Oscillator {
         f_t[0] = 0.0;
     }
     fn running_cost(&self, _t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
-        let s = if self.flip { -1.0 } else { 1.0 };
-        l_z[0] = -s * z[0];
+        let s = self.sign;
+        l_z[0] = -s * self.k * z[0];
         l_z[1] = s * z[1];
-        (s * 0.5 * (z[1] * z[1] - z[0] * z[0]), 0.0)
+        (
+            s * 0.5 * (z[1] * z[1] - self.k * z[0] * z[0]) + self.delta,
+            0.0,
+        )
     }
     fn lagrangian_hessian(&self, _t: f64, _z: &[f64], w: f64, _lam: &[f64], h: &mut [f64]) {
-        let s = if self.flip { -1.0 } else { 1.0 };
         h.fill(0.0);
-        h[0] = -s * w;
-        h[4] = s * w;
+        h[0] = -self.sign * self.k * w;
+        h[4] = self.sign * w;
     }
 }
 
@@ -115,17 +132,6 @@ fn uniform_mesh(n: usize) -> Vec<f64> {
 /// A graded mesh (so that interval lengths differ).
 fn graded_mesh(n: usize) -> Vec<f64> {
     (0..=n).map(|i| (i as f64 / n as f64).powf(1.3)).collect()
-}
-
-fn dense(entries: &[(usize, usize, f64)], rows: usize, cols: usize, mirror: bool) -> DMatrix<f64> {
-    let mut d = DMatrix::zeros(rows, cols);
-    for &(r, c, v) in entries {
-        d[(r, c)] += v;
-        if mirror && r != c {
-            d[(c, r)] += v;
-        }
-    }
-    d
 }
 
 fn central(mut f: impl FnMut(f64) -> f64, x: f64, h: f64) -> f64 {
@@ -201,41 +207,6 @@ fn nlp_derivatives_match_finite_differences() {
     assert!(worst.iter().all(|&w| w < 1e-7), "FD mismatch {worst:?}");
 }
 
-/// Dense reference: number of negative eigenvalues of ZᵀHZ and the smallest generalized
-/// eigenvalue of (ZᵀHZ, ZᵀMZ), Z an orthonormal basis of null(A).
-fn dense_reduced(tr: &Transcription<'_, impl OcpProblem>, pt: &KktPoint) -> (usize, f64) {
-    let (nv, nc) = (tr.n_var(), tr.n_con());
-    let a = dense(&tr.jacobian(&pt.v), nc, nv, false);
-    let h = dense(&tr.lagrangian_hessian(&pt.v, &pt.y), nv, nv, true);
-    let ata = a.transpose() * &a;
-    let eig = SymmetricEigen::new(ata);
-    let scale = eig.eigenvalues.amax();
-    let cols: Vec<usize> = (0..nv)
-        .filter(|&i| eig.eigenvalues[i] < 1e-10 * scale)
-        .collect();
-    assert_eq!(cols.len(), nv - nc, "A has full row rank");
-    let z = eig.eigenvectors.select_columns(&cols);
-    let red = z.transpose() * &h * &z;
-    let red = (&red + red.transpose()) * 0.5;
-    let neg = SymmetricEigen::new(red.clone())
-        .eigenvalues
-        .iter()
-        .filter(|&&e| e < 0.0)
-        .count();
-    let m = DMatrix::from_diagonal(&nalgebra::DVector::from_vec(tr.metric_diagonal(&pt.v)));
-    let mz = z.transpose() * m * &z;
-    let l = mz
-        .cholesky()
-        .expect("M is positive definite on null(A)")
-        .l();
-    let li = l.try_inverse().expect("invertible");
-    let g = &li * red * li.transpose();
-    let mu = SymmetricEigen::new((&g + g.transpose()) * 0.5)
-        .eigenvalues
-        .min();
-    (neg, mu)
-}
-
 #[test]
 fn inertia_and_margin_match_a_dense_null_space_computation() {
     let prob = Pendulum { delta: 0.2 };
@@ -280,10 +251,10 @@ fn inertia_and_margin_match_a_dense_null_space_computation() {
 }
 
 fn oscillator_transcription(
-    prob: &Oscillator,
+    prob: &Quadratic,
     t_len: f64,
     n: usize,
-) -> Transcription<'_, Oscillator> {
+) -> Transcription<'_, Quadratic> {
     let boundary = Boundary {
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
@@ -297,7 +268,7 @@ fn oscillator_transcription(
 
 #[test]
 fn oscillator_minimum_and_saddle_are_told_apart() {
-    let prob = Oscillator { flip: false };
+    let prob = Quadratic::oscillator(false);
     let pi = std::f64::consts::PI;
     // (T, expected verdict, expected negative directions)
     for (t_len, verdict, neg) in [
@@ -373,7 +344,7 @@ fn oscillator_minimum_and_saddle_are_told_apart() {
 #[test]
 fn a_maximizer_is_not_certified() {
     // L = −(u² − x²)/2 for T = 2: the extremal maximizes; every direction curves down.
-    let prob = Oscillator { flip: true };
+    let prob = Quadratic::oscillator(true);
     let tr = oscillator_transcription(&prob, 2.0, 20);
     let v0 = tr.primal_from_fn(2.0, |t, z| {
         z[0] = t.sin() / 2f64.sin();
@@ -401,33 +372,12 @@ fn a_maximizer_is_not_certified() {
 #[test]
 fn free_time_optimum_is_found_and_certified() {
     // ẋ = u, L = u²/2 + δ, x(0) = 0, x(T) = 1: u = 1/T, J = 1/(2T) + δT, T* = 1/√(2δ).
-    struct MinEnergyTime {
-        delta: f64,
-    }
-    impl OcpProblem for MinEnergyTime {
-        fn n_state(&self) -> usize {
-            1
-        }
-        fn n_control(&self) -> usize {
-            1
-        }
-        fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
-            f[0] = z[1];
-            f_z.copy_from_slice(&[0.0, 1.0]);
-            f_t[0] = 0.0;
-        }
-        fn running_cost(&self, _t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
-            l_z[0] = 0.0;
-            l_z[1] = z[1];
-            (0.5 * z[1] * z[1] + self.delta, 0.0)
-        }
-        fn lagrangian_hessian(&self, _t: f64, _z: &[f64], w: f64, _l: &[f64], h: &mut [f64]) {
-            h.fill(0.0);
-            h[4] = w;
-        }
-    }
     let delta = 0.125;
-    let prob = MinEnergyTime { delta };
+    let prob = Quadratic {
+        sign: 1.0,
+        k: 0.0,
+        delta,
+    };
     let boundary = Boundary {
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
@@ -461,7 +411,7 @@ fn free_time_optimum_is_found_and_certified() {
 
 #[test]
 fn least_squares_multipliers_vanish_residual_at_kkt_point() {
-    let prob = Oscillator { flip: false };
+    let prob = Quadratic::oscillator(false);
     let tr = oscillator_transcription(&prob, 2.0, 10);
     let v0 = tr.primal_from_fn(2.0, |t, z| {
         z[0] = t.sin() / 2f64.sin();

@@ -6,6 +6,8 @@
 
 use std::path::Path;
 
+mod ocpkit;
+
 use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
 use suslov::suslov::certify::{certify, SuslovCertificate};
 use suslov::{paper, solve, SolveOptions, SuslovProblem};
@@ -157,7 +159,6 @@ fn certify_job_writes_json_and_says_the_verdict() {
 /// ZᵀHZ in the metric M at the same KKT point.
 #[test]
 fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
-    use nalgebra::{DMatrix, DVector, SymmetricEigen};
     use suslov::ocp::certify::second_order;
     use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
     use suslov::suslov::certify::{transcription, SuslovOcp};
@@ -190,36 +191,7 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
     };
     let rep = second_order(&tr, &matrix, &pt, &so_opts).expect("second order");
 
-    let (nv, nc) = (tr.n_var(), tr.n_con());
-    let mut a = DMatrix::<f64>::zeros(nc, nv);
-    for (r, c, x) in tr.jacobian(&pt.v) {
-        a[(r, c)] += x;
-    }
-    let mut h = DMatrix::<f64>::zeros(nv, nv);
-    for (r, c, x) in tr.lagrangian_hessian(&pt.v, &pt.y) {
-        h[(r, c)] += x;
-        if r != c {
-            h[(c, r)] += x;
-        }
-    }
-    let ata = SymmetricEigen::new(a.transpose() * &a);
-    let scale = ata.eigenvalues.amax();
-    let cols: Vec<usize> = (0..nv)
-        .filter(|&i| ata.eigenvalues[i] < 1e-12 * scale)
-        .collect();
-    assert_eq!(cols.len(), nv - nc, "A has full row rank");
-    let z = ata.eigenvectors.select_columns(&cols);
-    let red = z.transpose() * &h * &z;
-    let m = DMatrix::from_diagonal(&DVector::from_vec(tr.metric_diagonal(&pt.v)));
-    let l = (z.transpose() * m * &z)
-        .cholesky()
-        .expect("M > 0 on null(A)")
-        .l();
-    let li = l.try_inverse().expect("invertible");
-    let g = &li * red * li.transpose();
-    let ev = SymmetricEigen::new((&g + g.transpose()) * 0.5).eigenvalues;
-    let negative = ev.iter().filter(|&&e| e < 0.0).count();
-    let mu = ev.min();
+    let (negative, mu) = ocpkit::dense_reduced(&tr, &pt);
     let (lo, hi) = rep.margin.expect("margin");
     eprintln!(
         "{} intervals: sparse {} negative directions, mu_min in [{lo:.6}, {hi:.6}]; dense {negative} negative, mu_min = {mu:.6}",
