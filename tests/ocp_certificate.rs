@@ -328,6 +328,12 @@ fn oscillator_minimum_and_saddle_are_told_apart() {
             cert.displacement
         );
         assert!((0.5 * (lo + hi) - exact).abs() < 2e-3 * (1.0 + exact.abs()));
+        // The eigenvector from inverse iteration: its Rayleigh quotient lies in the bracket.
+        let q = so.weakest_rayleigh.expect("weakest direction");
+        assert!(
+            lo - 1e-6 * lo.abs() <= q && q <= hi + 1e-6 * hi.abs(),
+            "{q} not in [{lo}, {hi}]"
+        );
         // The discrete multipliers are the costate π = −u (H = L + π u, H_u = u + π = 0).
         let omega = tr.quadrature_weights();
         let lam = tr.point_multipliers(&cert.point.y);

@@ -61,6 +61,11 @@ fn assert_certified(cert: &SuslovCertificate) {
     );
     let (lo, hi) = so.margin.expect("margin bracketed");
     assert!(lo > 0.0 && hi >= lo);
+    let q = so.weakest_rayleigh.expect("weakest direction");
+    assert!(
+        lo * (1.0 - 1e-6) <= q && q <= hi * (1.0 + 1e-6),
+        "{q} not in [{lo}, {hi}]"
+    );
     // The indirect solution is a KKT point of the discretized problem up to discretization
     // error, and its multipliers are the costates computed from kappa.
     assert!(cert.certificate.candidate.relative_stationarity() < 1e-5);

@@ -30,7 +30,7 @@ use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
 use super::kkt::{self, KktError, KktMatrix, KktPoint, KktResidual, NewtonOptions};
 use super::problem::OcpProblem;
-use super::transcription::Transcription;
+use super::transcription::{Entry, Transcription};
 
 /// The verdict of the second-order test.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
@@ -100,6 +100,12 @@ pub struct SecondOrderReport {
     pub min_pivot_ratio: f64,
     /// Factorizations done.
     pub factorizations: usize,
+    /// The eigenvector of `μ_min` (the weakest direction; for a point that is not a minimum,
+    /// the most negative one): unknowns in transcription order, `‖δv‖_M = 1`, `A δv = 0`.
+    /// `None` when the margin is not bracketed.
+    pub weakest_direction: Option<Vec<f64>>,
+    /// Its Rayleigh quotient `δvᵀHδv / δvᵀMδv` (inside the bracket when converged).
+    pub weakest_rayleigh: Option<f64>,
 }
 
 /// Why the second-order test could not run.
@@ -129,6 +135,8 @@ struct ShiftedKkt<'k> {
     /// Values at `σ = 0` in pattern order; the first `n_var` entries are the diagonal of the
     /// unknowns (where `−σ M` goes).
     values: Vec<f64>,
+    /// The Lagrangian Hessian (lower triangle), for Rayleigh quotients.
+    hessian: Vec<Entry>,
     metric: Vec<f64>,
     n_var: usize,
     n_con: usize,
@@ -141,14 +149,12 @@ impl<'k> ShiftedKkt<'k> {
         pt: &KktPoint,
     ) -> Self {
         let (nv, nc) = (tr.n_var(), tr.n_con());
-        let values = kkt.values(
-            &vec![0.0; nv],
-            &tr.lagrangian_hessian(&pt.v, &pt.y),
-            &tr.jacobian(&pt.v),
-        );
+        let hessian = tr.lagrangian_hessian(&pt.v, &pt.y);
+        let values = kkt.values(&vec![0.0; nv], &hessian, &tr.jacobian(&pt.v));
         Self {
             kkt,
             values,
+            hessian,
             metric: tr.metric_diagonal(&pt.v),
             n_var: nv,
             n_con: nc,
@@ -206,6 +212,8 @@ pub fn second_order<P: OcpProblem + ?Sized>(
         backward_error: factor.backward_error(),
         min_pivot_ratio: factor.min_pivot_ratio(),
         factorizations: 1,
+        weakest_direction: None,
+        weakest_rayleigh: None,
     };
     let Some(k0) = kkt.excess(inertia)? else {
         return Ok(report);
@@ -217,7 +225,61 @@ pub fn second_order<P: OcpProblem + ?Sized>(
         Verdict::NotMinimum
     };
     report.margin = margin(&kkt, k0 == 0, opts, &mut report.factorizations)?;
+    if let Some((lo, hi)) = report.margin {
+        if let Some((v, q)) = weakest(&kkt, lo - (hi - lo).max(1e-3 * lo.abs()))? {
+            report.factorizations += 1;
+            report.weakest_direction = Some(v);
+            report.weakest_rayleigh = Some(q);
+        }
+    }
     Ok(report)
+}
+
+/// Inverse iteration for the eigenvector of `μ_min` with a shift `σ` just below it:
+/// `K(σ) [v⁺; y] = [M v; 0]` keeps `v⁺` in `null(A)` and amplifies the eigenvalue nearest `σ`.
+/// Returns the `M`-normalized vector and its Rayleigh quotient (`None` if the solve fails).
+fn weakest(kkt: &ShiftedKkt, sigma: f64) -> Result<Option<(Vec<f64>, f64)>, SecondOrderError> {
+    let Ok(factor) = kkt.factorize(sigma) else {
+        return Ok(None);
+    };
+    let (nv, nc) = (kkt.n_var, kkt.n_con);
+    let m_norm = |v: &[f64]| -> f64 {
+        v.iter()
+            .zip(&kkt.metric)
+            .map(|(x, d)| d * x * x)
+            .sum::<f64>()
+            .sqrt()
+    };
+    // A deterministic start with every component excited.
+    let mut v: Vec<f64> = (0..nv)
+        .map(|i| 1.0 + 0.5 * ((i * 7919) % 13) as f64 / 13.0)
+        .collect();
+    for _ in 0..12 {
+        let mut rhs: Vec<f64> = v.iter().zip(&kkt.metric).map(|(x, d)| d * x).collect();
+        rhs.resize(nv + nc, 0.0);
+        if factor.solve_in_place(&mut rhs).is_err() || !rhs.iter().all(|x| x.is_finite()) {
+            return Ok(None);
+        }
+        rhs.truncate(nv);
+        let n = m_norm(&rhs);
+        if !(n > 0.0) {
+            return Ok(None);
+        }
+        v = rhs.into_iter().map(|x| x / n).collect();
+    }
+    // Rayleigh quotient vᵀHv (vᵀMv = 1).
+    let q: f64 = kkt
+        .hessian
+        .iter()
+        .map(|&(r, c, x)| {
+            if r == c {
+                x * v[r] * v[r]
+            } else {
+                2.0 * x * v[r] * v[c]
+            }
+        })
+        .sum();
+    Ok(Some((v, q)))
 }
 
 /// Brackets `μ_min`: first a geometric search for a bracket `[lo, hi]` with no eigenvalue

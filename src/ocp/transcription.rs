@@ -464,6 +464,42 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         groups
     }
 
+    /// Where a direction `δv` (e.g. the weakest direction of the second-order test) lives in
+    /// time, measured in the metric `M` (see [`Self::metric_diagonal`]).
+    pub fn profile(&self, v: &[f64], dv: &[f64]) -> DirectionProfile {
+        let (n, nz) = (self.n, self.nz());
+        let t_len = self.length(v);
+        let metric = self.metric_diagonal(v);
+        let energy = |range: std::ops::Range<usize>| -> f64 {
+            range.map(|i| metric[i] * dv[i] * dv[i]).sum()
+        };
+        let total = energy(0..self.n_var()).max(f64::MIN_POSITIVE);
+        let w = self.quadrature_weights();
+        let (mut start, mut end, mut peak, mut peak_density) = (0.0, 0.0, 0.0, -1.0);
+        for p in 0..self.n_points() {
+            let controls = energy(p * nz + n..(p + 1) * nz);
+            let s = self.point_s(p);
+            if s <= 0.05 {
+                start += controls;
+            }
+            if s >= 0.95 {
+                end += controls;
+            }
+            let density = controls / w[p];
+            if density > peak_density {
+                peak_density = density;
+                peak = self.point_time(p, t_len);
+            }
+        }
+        DirectionProfile {
+            peak_time: peak,
+            initial_state_fraction: energy(0..n) / total,
+            start_fraction: (start + energy(0..n)) / total,
+            end_fraction: end / total,
+            length_fraction: self.length_index().map_or(0.0, |i| energy(i..i + 1)) / total,
+        }
+    }
+
     /// The diagonal of the metric `M` in which the second-order margin is measured:
     /// `‖δv‖²_M = T Σ_p ω_p |δu_p|² + Σ_{free start components} δx_i(t0)² + δT²`, the discrete
     /// `∫|δu|² dt` plus the free initial data. Positive definite on the null space of the
@@ -487,4 +523,20 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         }
         d
     }
+}
+
+/// Where a direction lives in time (fractions of its `M`-energy; see
+/// [`Transcription::profile`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DirectionProfile {
+    /// Time where the control part `|δu|²` has its largest density.
+    pub peak_time: f64,
+    /// Fraction in the free initial state components `δx(t0)`.
+    pub initial_state_fraction: f64,
+    /// Fraction in `δx(t0)` and in the controls of the first 5 % of the interval.
+    pub start_fraction: f64,
+    /// Fraction in the controls of the last 5 % of the interval.
+    pub end_fraction: f64,
+    /// Fraction in `δT`.
+    pub length_fraction: f64,
 }

@@ -61,6 +61,21 @@ pub struct CertificateReport {
     /// Upper end of that bracket.
     #[serde(with = "opt_finite_or_null")]
     pub margin_high: Option<f64>,
+    /// Rayleigh quotient of the computed weakest direction (≈ the margin).
+    #[serde(with = "opt_finite_or_null")]
+    pub weakest_rayleigh: Option<f64>,
+    /// Time where the weakest direction's `|δξ̇|²` peaks.
+    #[serde(with = "opt_finite_or_null")]
+    pub weakest_peak_time: Option<f64>,
+    /// Fraction of the weakest direction in `δξ(a)` and the first 5 % of `[a, b]`.
+    #[serde(with = "opt_finite_or_null")]
+    pub weakest_start_fraction: Option<f64>,
+    /// Fraction of it in `δξ(a)` alone.
+    #[serde(with = "opt_finite_or_null")]
+    pub weakest_initial_xi_fraction: Option<f64>,
+    /// Fraction of it in the last 5 % of `[a, b]`.
+    #[serde(with = "opt_finite_or_null")]
+    pub weakest_end_fraction: Option<f64>,
     /// The first discrete conjugate point `t_j` (variations with fixed ends on `[a, t_j]`
     /// lower the cost), `null` if there is none up to `b`.
     #[serde(with = "opt_finite_or_null")]
@@ -108,6 +123,11 @@ impl CertificateReport {
             margin_high: so.margin.map(|m| m.1),
             backward_error: so.backward_error,
             conjugate_time: c.certificate.conjugate.first.map(|p| p.time),
+            weakest_rayleigh: so.weakest_rayleigh,
+            weakest_peak_time: c.weakest.map(|w| w.peak_time),
+            weakest_start_fraction: c.weakest.map(|w| w.start_fraction),
+            weakest_initial_xi_fraction: c.weakest.map(|w| w.initial_state_fraction),
+            weakest_end_fraction: c.weakest.map(|w| w.end_fraction),
             warning: c.warning(),
             ..Default::default()
         }
@@ -151,6 +171,7 @@ impl CertificateReport {
              \x20 KKT inertia (+{p}, -{n}, 0x{z}); expected (+{nv}, -{nc}, 0x0) for a minimum; \
              {neg} negative curvature direction(s)\n\
              \x20 smallest eigenvalue of the reduced Hessian: {margin}\n\
+             \x20 {weak}\n\
              \x20 first conjugate point (fixed-end variations): {conj}\n\
              \x20 LBL^T backward error {be:.1e}; {ss:.2} s solve, {cs2:.2} s certificate\n",
             name = self.name,
@@ -173,6 +194,23 @@ impl CertificateReport {
             z = self.inertia[2],
             neg = self.negative_curvature_directions,
             be = self.backward_error,
+            weak = match (
+                self.weakest_rayleigh,
+                self.weakest_peak_time,
+                self.weakest_start_fraction,
+                self.weakest_initial_xi_fraction,
+                self.weakest_end_fraction,
+            ) {
+                (Some(q), Some(t), Some(s), Some(x), Some(e)) => format!(
+                    "weakest direction: Rayleigh quotient {q:.4e}; {:.0} % of it in the first 5 % \
+                     of [a, b] (delta xi(a): {:.0} %), {:.0} % in the last 5 %; |delta xi'| peaks \
+                     at t = {t:.4}",
+                    100.0 * s,
+                    100.0 * x,
+                    100.0 * e
+                ),
+                _ => "weakest direction: not computed".to_string(),
+            },
             conj = match self.conjugate_time {
                 Some(t) => format!("at t = {t:.4}"),
                 None => "none up to b".to_string(),

@@ -142,6 +142,8 @@ pub struct SuslovCertificate {
     /// `‖v* − v₀‖∞ / max(1, ‖v₀‖∞)`: how far the certified point is from the indirect
     /// solution, relative to its size.
     pub relative_displacement: f64,
+    /// Where the weakest (or most negative) direction of the second variation lives in time.
+    pub weakest: Option<ocp::transcription::DirectionProfile>,
 }
 
 /// Above this relative displacement the certified KKT point is not the computed solution
@@ -237,6 +239,11 @@ pub fn certify(
         terminal_time: sol.problem.t0 + t_len,
         cost: tr.objective(&certificate.point.v),
         relative_displacement: certificate.displacement / size,
+        weakest: certificate
+            .second_order
+            .weakest_direction
+            .as_ref()
+            .map(|dv| tr.profile(&certificate.point.v, dv)),
         certificate,
     })
 }
