@@ -262,7 +262,7 @@ fn weakest(kkt: &ShiftedKkt, sigma: f64) -> Result<Option<(Vec<f64>, f64)>, Seco
         }
         rhs.truncate(nv);
         let n = m_norm(&rhs);
-        if !(n > 0.0) {
+        if n.is_nan() || n <= 0.0 {
             return Ok(None);
         }
         v = rhs.into_iter().map(|x| x / n).collect();

@@ -476,7 +476,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let total = energy(0..self.n_var()).max(f64::MIN_POSITIVE);
         let w = self.quadrature_weights();
         let (mut start, mut end, mut peak, mut peak_density) = (0.0, 0.0, 0.0, -1.0);
-        for p in 0..self.n_points() {
+        for (p, wp) in w.iter().enumerate() {
             let controls = energy(p * nz + n..(p + 1) * nz);
             let s = self.point_s(p);
             if s <= 0.05 {
@@ -485,7 +485,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             if s >= 0.95 {
                 end += controls;
             }
-            let density = controls / w[p];
+            let density = controls / wp;
             if density > peak_density {
                 peak_density = density;
                 peak = self.point_time(p, t_len);
