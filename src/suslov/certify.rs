@@ -22,6 +22,37 @@
 //!    whether the reduced Hessian is positive definite; bisection gives its smallest
 //!    eigenvalue in the `∫|δξ̇|² dt + |δξ(a)|² (+ δb²)` metric.
 
+//!
+//! # Example
+//!
+//! ```
+//! use std::sync::Arc;
+//! use nalgebra::Vector3;
+//! use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
+//! use suslov::suslov::certify::certify;
+//! use suslov::suslov::{EnergyEllipsoid, Inertia, ProjectedSegment};
+//! use suslov::{solve, CostWeights, SolveOptions, SuslovProblem, TerminalTime};
+//!
+//! let inertia = Inertia::new([1.0, 2.0, 3.0])?;
+//! let omega_a = Vector3::new(3.0, 0.0, 0.0);
+//! let omega_b = EnergyEllipsoid::through(inertia, &omega_a)?.project(&Vector3::new(1.0, 2.0, 0.0))?;
+//! let problem = SuslovProblem {
+//!     inertia,
+//!     weights: CostWeights { alpha: 1.0, beta: 0.1, gamma: 1.0, eta: 0.1, delta: 0.0 },
+//!     t0: 0.0,
+//!     omega_a,
+//!     omega_b,
+//!     terminal: TerminalTime::Fixed(4.0),
+//!     desired: Arc::new(ProjectedSegment::new(inertia, omega_a, omega_b, 0.0, 4.0)?),
+//! };
+//! let solution = solve(&problem, &SolveOptions::default(), &mut |_| {})?;
+//! let cert = certify(&solution, &NewtonOptions::default(), &SecondOrderOptions::default())?;
+//! assert_eq!(cert.verdict(), Verdict::Certified);
+//! let (low, _high) = cert.certificate.second_order.margin.expect("bracketed");
+//! assert!(low > 0.0); // δ²L ≥ low · ‖δ‖²_M on the linearized constraints
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
 use super::desired::DesiredPath;
 use super::problem::{SuslovProblem, TerminalTime};
 use super::solve::SuslovSolution;
