@@ -340,8 +340,8 @@ pub fn run_solve(
     Ok(summary)
 }
 
-/// One case for [`run_certify`].
-pub struct CertifyJob {
+/// One case for [`run_certify`] and [`run_rank_along`].
+pub struct CaseJob {
     /// Case name.
     pub name: String,
     /// The problem.
@@ -350,12 +350,10 @@ pub struct CertifyJob {
     pub options: SolveOptions,
 }
 
-/// The cases of `suslov certify [CONFIG]`: the problem in `config`, or the paper's two;
+/// The cases of `suslov certify [CONFIG]` and `suslov controllability --along`: the problem
+/// in `config`, or the paper's two;
 /// `tolerance` overrides the final BVP tolerance (the mesh the certificate runs on).
-pub fn certify_jobs(
-    config: Option<&Path>,
-    tolerance: Option<f64>,
-) -> Result<Vec<CertifyJob>, AppError> {
+pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<CaseJob>, AppError> {
     if let Some(t) = tolerance {
         if !(t > 0.0 && t.is_finite()) {
             return Err(AppError::InvalidArgument(format!(
@@ -366,7 +364,7 @@ pub fn certify_jobs(
     let mut jobs = match config {
         Some(path) => {
             let loaded = config::load(path)?;
-            vec![CertifyJob {
+            vec![CaseJob {
                 name: loaded.name,
                 problem: loaded.problem,
                 options: loaded.options,
@@ -374,7 +372,7 @@ pub fn certify_jobs(
         }
         None => paper::CASES
             .iter()
-            .map(|c| CertifyJob {
+            .map(|c| CaseJob {
                 name: c.name.to_string(),
                 problem: paper::problem(c.eta),
                 options: SolveOptions::default(),
@@ -391,7 +389,7 @@ pub fn certify_jobs(
 /// solve or certificate is recorded in its report (verdict `"error"`), not returned. With
 /// `json`, the reports are written there (atomically) as `{"cases": [...]}`.
 pub fn run_certify(
-    jobs: &[CertifyJob],
+    jobs: &[CaseJob],
     json: Option<&Path>,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
@@ -452,7 +450,7 @@ pub fn run_certify(
 /// accessibility rank test ([`crate::suslov::controllability`]) at `points` times along the
 /// optimal trajectory. Returns the text for people.
 pub fn run_rank_along(
-    jobs: &[CertifyJob],
+    jobs: &[CaseJob],
     points: usize,
     rtol: f64,
     events: &mut dyn FnMut(AppEvent),

@@ -263,7 +263,7 @@ fn main() -> ExitCode {
         Command::Controllability(a) if a.along.is_some() => {
             let along = a.along.as_deref().unwrap_or(std::path::Path::new("paper"));
             let config = (along != std::path::Path::new("paper")).then_some(along);
-            let result = app::certify_jobs(config, None).and_then(|jobs| {
+            let result = app::case_jobs(config, None).and_then(|jobs| {
                 app::run_rank_along(&jobs, a.points, a.rtol, &mut |e| reporter.event(e))
             });
             return match result {
@@ -294,7 +294,7 @@ fn main() -> ExitCode {
             json,
             tolerance,
         } => {
-            let result = app::certify_jobs(config.as_deref(), tolerance).and_then(|jobs| {
+            let result = app::case_jobs(config.as_deref(), tolerance).and_then(|jobs| {
                 app::run_certify(&jobs, json.as_deref(), &mut |e| reporter.event(e))
             });
             return match result {

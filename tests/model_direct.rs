@@ -251,19 +251,6 @@ fn check_point(rng: &mut Rng, corrupt: Option<(Corrupt, f64)>) -> Outcome {
     o
 }
 
-fn report(failures: &[String]) -> String {
-    format!(
-        "{} entries disagree:\n{}",
-        failures.len(),
-        failures
-            .iter()
-            .take(40)
-            .cloned()
-            .collect::<Vec<_>>()
-            .join("\n")
-    )
-}
-
 #[test]
 fn direct_derivatives_match_finite_differences() {
     let mut rng = Rng::new(2027);
@@ -280,7 +267,11 @@ fn direct_derivatives_match_finite_differences() {
         "worst relative error vs finite differences over {POINTS} points (tolerance {TOL:e}): \
          f_z {wf:.1e}, l_z/l_d {wl:.1e}, Hessian {wh:.1e}"
     );
-    assert!(failures.is_empty(), "{}", report(&failures));
+    assert!(
+        failures.is_empty(),
+        "{}",
+        modelkit::failure_report(&failures)
+    );
 }
 
 #[test]

@@ -136,14 +136,8 @@ fn generated_jacobians_match_finite_differences() {
     }
     assert!(
         failures.is_empty(),
-        "{} entries disagree:\n{}",
-        failures.len(),
-        failures
-            .iter()
-            .take(40)
-            .cloned()
-            .collect::<Vec<_>>()
-            .join("\n")
+        "{}",
+        modelkit::failure_report(&failures)
     );
 }
 

@@ -13,8 +13,8 @@ use ocpkit::{dense, dense_reduced};
 use suslov::ocp::certify::second_order;
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
-    certify, Boundary, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions, Transcription,
-    Verdict,
+    certify, Boundary, Certificate, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
+    Transcription, Verdict,
 };
 
 /// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
@@ -227,7 +227,7 @@ fn inertia_and_margin_match_a_dense_null_space_computation() {
             let amp = if trial % 2 == 0 { 0.1 } else { 5.0 };
             let y: Vec<f64> = (0..tr.n_con()).map(|_| rng.uniform(-amp, amp)).collect();
             let pt = KktPoint { v, y };
-            let matrix = KktMatrix::new(&tr).expect("pattern");
+            let matrix = KktMatrix::new(&tr, &pt.v).expect("pattern");
             let rep = second_order(&tr, &matrix, &pt, &opts).expect("second-order test runs");
             let (neg, mu) = dense_reduced(&tr, &pt);
             let (lo, hi) = rep.margin.expect("margin bracketed");
@@ -266,6 +266,26 @@ fn oscillator_transcription(
     Transcription::new(prob, boundary, horizon, uniform_mesh(n)).expect("valid")
 }
 
+/// The exact extremal `x = sin t / sin T`, `u = cos t / sin T` (a KKT point of the continuous
+/// problem, as an indirect method would deliver it), sampled at the collocation points.
+fn oscillator_extremal(tr: &Transcription<'_, Quadratic>, t_len: f64) -> Vec<f64> {
+    let st = t_len.sin();
+    tr.primal_from_fn(t_len, |t, z| {
+        z[0] = t.sin() / st;
+        z[1] = t.cos() / st;
+    })
+}
+
+fn certify_default(tr: &Transcription<'_, Quadratic>, v0: Vec<f64>) -> Certificate {
+    certify(
+        tr,
+        v0,
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .expect("certificate")
+}
+
 #[test]
 fn oscillator_minimum_and_saddle_are_told_apart() {
     let prob = Quadratic::oscillator(false);
@@ -280,19 +300,7 @@ fn oscillator_minimum_and_saddle_are_told_apart() {
         // Step 0.05 in time for every T.
         let tr = oscillator_transcription(&prob, t_len, (20.0 * t_len) as usize);
         let st = t_len.sin();
-        // The exact extremal (a KKT point of the continuous problem), as an indirect method
-        // would deliver it.
-        let v0 = tr.primal_from_fn(t_len, |t, z| {
-            z[0] = t.sin() / st;
-            z[1] = t.cos() / st;
-        });
-        let cert = certify(
-            &tr,
-            v0,
-            &NewtonOptions::default(),
-            &SecondOrderOptions::default(),
-        )
-        .expect("certificate");
+        let cert = certify_default(&tr, oscillator_extremal(&tr, t_len));
         let so = &cert.second_order;
         let (lo, hi) = so.margin.expect("margin");
         let exact = 1.0 - (t_len / pi).powi(2);
@@ -352,17 +360,7 @@ fn a_maximizer_is_not_certified() {
     // L = −(u² − x²)/2 for T = 2: the extremal maximizes; every direction curves down.
     let prob = Quadratic::oscillator(true);
     let tr = oscillator_transcription(&prob, 2.0, 20);
-    let v0 = tr.primal_from_fn(2.0, |t, z| {
-        z[0] = t.sin() / 2f64.sin();
-        z[1] = t.cos() / 2f64.sin();
-    });
-    let cert = certify(
-        &tr,
-        v0,
-        &NewtonOptions::default(),
-        &SecondOrderOptions::default(),
-    )
-    .expect("certificate");
+    let cert = certify_default(&tr, oscillator_extremal(&tr, 2.0));
     let so = &cert.second_order;
     eprintln!(
         "maximizer: inertia {}, {} negative directions, margin {:?}",
@@ -395,13 +393,7 @@ fn free_time_optimum_is_found_and_certified() {
         z[0] = (t - 1.0) / guess;
         z[1] = 1.0 / guess;
     });
-    let cert = certify(
-        &tr,
-        v0,
-        &NewtonOptions::default(),
-        &SecondOrderOptions::default(),
-    )
-    .expect("certificate");
+    let cert = certify_default(&tr, v0);
     let t_star = tr.length(&cert.point.v);
     eprintln!(
         "free time: T = {t_star:.12} (exact {:.12}), Newton {} its, {}, margin {:?}",
@@ -419,11 +411,8 @@ fn free_time_optimum_is_found_and_certified() {
 fn least_squares_multipliers_vanish_residual_at_kkt_point() {
     let prob = Quadratic::oscillator(false);
     let tr = oscillator_transcription(&prob, 2.0, 10);
-    let v0 = tr.primal_from_fn(2.0, |t, z| {
-        z[0] = t.sin() / 2f64.sin();
-        z[1] = t.cos() / 2f64.sin();
-    });
-    let matrix = KktMatrix::new(&tr).expect("pattern");
+    let v0 = oscillator_extremal(&tr, 2.0);
+    let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
     let (pt, _) = kkt::newton(
         &tr,
         &matrix,

@@ -135,7 +135,7 @@ fn certify_job_writes_json_and_says_the_verdict() {
     let dir = std::env::temp_dir().join(format!("suslov-certify-{}", std::process::id()));
     let json = dir.join("sub/certificate.json");
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml");
-    let jobs = suslov::app::certify_jobs(Some(&config), None).expect("jobs");
+    let jobs = suslov::app::case_jobs(Some(&config), None).expect("jobs");
     let reports = suslov::app::run_certify(&jobs, Some(&json), &mut |_| {}).expect("runs");
     assert_eq!(reports.len(), 1);
     assert_eq!(reports[0].verdict, "certified");
@@ -153,7 +153,7 @@ fn certify_job_writes_json_and_says_the_verdict() {
     assert!(case["margin_low"].as_f64().expect("number") > 0.0);
     std::fs::remove_dir_all(&dir).ok();
     // A bad tolerance is an error naming the flag.
-    let err = suslov::app::certify_jobs(None, Some(-1.0))
+    let err = suslov::app::case_jobs(None, Some(-1.0))
         .err()
         .expect("rejected");
     assert!(err.to_string().contains("--tolerance"));
@@ -181,7 +181,7 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
         v0.extend_from_slice(&y[..9]);
     }
     v0.push(sol.t_span);
-    let matrix = KktMatrix::new(&tr).expect("pattern");
+    let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
     let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
     let (pt, _) = kkt::newton(
         &tr,
@@ -212,7 +212,7 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
 #[test]
 fn rank_along_a_solved_trajectory_is_four() {
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml");
-    let jobs = suslov::app::certify_jobs(Some(&config), None).expect("jobs");
+    let jobs = suslov::app::case_jobs(Some(&config), None).expect("jobs");
     let text = suslov::app::run_rank_along(&jobs, 51, 1e-9, &mut |_| {}).expect("runs");
     eprintln!("{text}");
     assert!(text.contains("rank of V = 4 at all 51 times"), "{text}");

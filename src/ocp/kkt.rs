@@ -105,19 +105,18 @@ pub struct KktMatrix {
 }
 
 impl KktMatrix {
-    /// The pattern of `tr`'s KKT matrices.
-    pub fn new<P: OcpProblem + ?Sized>(tr: &Transcription<'_, P>) -> Result<Self, KktError> {
+    /// The pattern of `tr`'s KKT matrices. The positions do not depend on the point; they are
+    /// read off the transcription's derivatives at `v` (any point where the problem is
+    /// defined, e.g. the candidate).
+    pub fn new<P: OcpProblem + ?Sized>(
+        tr: &Transcription<'_, P>,
+        v: &[f64],
+    ) -> Result<Self, KktError> {
         let (nv, nc) = (tr.n_var(), tr.n_con());
-        // Positions do not depend on the point: take them at any point.
-        let v = tr.primal_from_fn(1.0, |_, z| z.fill(0.0));
         let y = vec![0.0; nc];
         let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        entries.extend(
-            tr.lagrangian_hessian(&v, &y)
-                .iter()
-                .map(|&(r, c, _)| (r, c)),
-        );
-        entries.extend(tr.jacobian(&v).iter().map(|&(r, c, _)| (nv + r, c)));
+        entries.extend(tr.lagrangian_hessian(v, &y).iter().map(|&(r, c, _)| (r, c)));
+        entries.extend(tr.jacobian(v).iter().map(|&(r, c, _)| (nv + r, c)));
         let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
         Ok(Self {
             pattern,

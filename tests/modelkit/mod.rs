@@ -118,3 +118,9 @@ pub fn derivative<const N: usize>(mut f: impl FnMut(f64) -> [f64; N], x: f64, h:
 pub fn close(a: f64, b: f64, tol: f64, scale: f64) -> bool {
     (a - b).abs() <= tol * scale.max(1.0)
 }
+
+/// "N entries disagree:" and the first 40 of them, one a line (assertion messages).
+pub fn failure_report(failures: &[String]) -> String {
+    let shown: Vec<&str> = failures.iter().take(40).map(String::as_str).collect();
+    format!("{} entries disagree:\n{}", failures.len(), shown.join("\n"))
+}
