@@ -19,17 +19,19 @@
 //! solution as a local minimum of the discretized problem, or not
 //! ([`crate::suslov::certify`]).
 //!
-//! Every file is written atomically. A case that fails writes what it has, marked: its
-//! summary status says `partial: <stage, parameter value, reason>` and its trajectory goes
-//! to `trajectory.partial.csv` (and `.npy`).
+//! Every file is written atomically into an [`OutputDir`]: the directory is locked for the run,
+//! the previous run's files are removed first, `INCOMPLETE` marks it until `summary.json`,
+//! the last file, is complete. A case that fails writes what it has, marked: its summary
+//! status says `partial: <stage, parameter value, reason>` and its trajectory goes to
+//! `trajectory.partial.csv` (and `.npy`).
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::time::Instant;
 
 use crate::config::{self, ConfigError};
 use crate::report::{
-    self, CaseSummary, CertificateReport, FigureFormat, FigureOptions, ReportError, StabilityRun,
-    StageSummary, Summary, TrajectoryTable,
+    self, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir, ReportError,
+    StabilityRun, StageSummary, Summary, TrajectoryTable,
 };
 use crate::suslov::diagnostics::{diagnose, reintegrate_check};
 use crate::suslov::paper::{self, PaperCase};
@@ -186,27 +188,32 @@ fn finite(v: f64) -> Option<f64> {
 }
 
 fn write_case_outputs(
-    dir: &Path,
+    out: &mut OutputDir,
+    sub: &Path,
     sol: &SuslovSolution,
     title: &str,
     partial: bool,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<(), AppError> {
     let table = trajectory_table(sol, OUTPUT_POINTS);
-    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-        path: dir.to_path_buf(),
-        source,
-    })?;
-    let csv = dir.join(if partial {
-        "trajectory.partial.csv"
+    let stem = if partial {
+        "trajectory.partial"
     } else {
-        "trajectory.csv"
-    });
-    report::write_trajectory_csv(&csv, &table)?;
+        "trajectory"
+    };
+    let csv = out.write(
+        sub.join(format!("{stem}.csv")),
+        report::trajectory_csv_string(&table)?.as_bytes(),
+    )?;
     events(AppEvent::Wrote(&csv));
-    let npy = csv.with_extension("npy");
-    report::write_trajectory_npy(&npy, &table)?;
+    let npy = out.write(
+        sub.join(format!("{stem}.npy")),
+        &report::trajectory_npy_bytes(&table)?,
+    )?;
     events(AppEvent::Wrote(&npy));
+    if partial {
+        return Ok(());
+    }
     let inertia = sol.problem.inertia.diag();
     let om_a = sol.problem.omega_a;
     let ellipsoid =
@@ -227,20 +234,25 @@ fn write_case_outputs(
                 .collect(),
         );
     }
-    if !partial {
-        for path in report::write_case_figures(dir, &table, &opts)? {
-            events(AppEvent::Wrote(&path));
-        }
+    for fig in report::Figure::ALL {
+        let bytes = report::render_figure_bytes(fig, &table, &opts)?;
+        let path = out.write(
+            sub.join(format!("{}.{}", fig.stem(), opts.format.extension())),
+            &bytes,
+        )?;
+        events(AppEvent::Wrote(&path));
     }
     Ok(())
 }
 
-/// Solve one problem, verify it and write its outputs under `dir`; never fails for a solver
-/// failure (that is recorded in the returned summary).
+/// Solve one problem, verify it and write its outputs into `out` under the relative
+/// directory `sub` (empty: `out` itself); never fails for a solver failure (that is recorded
+/// in the returned summary).
 pub fn run_case(
     name: &str,
     problem: &SuslovProblem,
-    dir: &Path,
+    out: &mut OutputDir,
+    sub: &Path,
     options: &SolveOptions,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<CaseSummary, AppError> {
@@ -251,7 +263,7 @@ pub fn run_case(
         Ok(sol) => {
             let mut s = summarize(name, &sol, 0.0);
             s.wall_seconds = clock.elapsed().as_secs_f64();
-            write_case_outputs(dir, &sol, name, false, events)?;
+            write_case_outputs(out, sub, &sol, name, false, events)?;
             s
         }
         Err(SolveError::StageFailed {
@@ -267,7 +279,7 @@ pub fn run_case(
                 "partial: stage '{stage}' stopped at {parameter} = {reached} (target {target}): \
                  {reason}"
             );
-            write_case_outputs(dir, &partial, name, true, events)?;
+            write_case_outputs(out, sub, &partial, name, true, events)?;
             s
         }
         Err(e) => CaseSummary {
@@ -290,27 +302,50 @@ pub fn run_case(
     Ok(summary)
 }
 
-/// `suslov paper --out DIR`: both cases of section 5.3. Returns the summary (also written to
-/// `DIR/summary.json`).
+/// `suslov paper --out DIR`: both cases of section 5.3, each in its own subdirectory, and
+/// `DIR/summary.json` last ([`OutputDir`]: the directory is locked for the run and holds
+/// exactly this run's files afterwards). Returns the summary.
 pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary, AppError> {
+    let mut dir = OutputDir::open(out)?;
     let mut summary = Summary::default();
     let options = SolveOptions::default();
     for PaperCase { name, eta, .. } in paper::CASES {
-        let dir: PathBuf = out.join(name);
-        let case = run_case(name, &paper::problem(eta), &dir, &options, events)?;
+        let case = run_case(
+            name,
+            &paper::problem(eta),
+            &mut dir,
+            Path::new(name),
+            &options,
+            events,
+        )?;
         summary.cases.push(case);
-        let path = out.join("summary.json");
-        report::write_summary_json(&path, &summary)?;
-        events(AppEvent::Wrote(&path));
     }
+    finish(dir, &summary, events)?;
     Ok(summary)
 }
 
+/// Writes `summary.json`, the last file of a run, and releases the directory.
+fn finish(
+    dir: OutputDir,
+    summary: &Summary,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<(), AppError> {
+    let text = summary
+        .to_json_string()
+        .map_err(|source| ReportError::Json {
+            path: dir.root().join(report::SUMMARY_FILE),
+            source,
+        })?;
+    let path = dir.finish(text.as_bytes())?;
+    events(AppEvent::Wrote(&path));
+    Ok(())
+}
+
 /// `suslov solve CONFIG --out DIR`: read the problem file (see [`crate::config`] for the
-/// schema), solve and verify it, and write `DIR/summary.json` (one case),
-/// `DIR/trajectory.csv` (or `trajectory.partial.csv`), the figures and `DIR/problem.toml`
-/// (a copy of the input). An invalid file is an error before anything is written; a solver
-/// failure is not (it is recorded in the summary's status).
+/// schema), solve and verify it, and write into `DIR` ([`OutputDir`]) `problem.toml` (a copy
+/// of the input), `trajectory.csv`/`.npy` (or `trajectory.partial.*`), the figures and, last,
+/// `summary.json` (one case). An invalid file is an error before anything is written; a
+/// solver failure is not (it is recorded in the summary's status).
 pub fn run_solve(
     config_path: &Path,
     out: &Path,
@@ -321,22 +356,23 @@ pub fn run_solve(
         path: config_path.to_path_buf(),
         source,
     })?;
-    let mut case = run_case(&loaded.name, &loaded.problem, out, &loaded.options, events)?;
+    let mut dir = OutputDir::open(out)?;
+    let copy = dir.write("problem.toml", &text)?;
+    events(AppEvent::Wrote(&copy));
+    let mut case = run_case(
+        &loaded.name,
+        &loaded.problem,
+        &mut dir,
+        Path::new(""),
+        &loaded.options,
+        events,
+    )?;
     case.extra.insert(
         "problem_file".into(),
         serde_json::json!(config_path.display().to_string()),
     );
-    let copy = out.join("problem.toml");
-    std::fs::create_dir_all(out).map_err(|source| ReportError::Io {
-        path: out.to_path_buf(),
-        source,
-    })?;
-    report::write_atomic(&copy, &text)?;
-    events(AppEvent::Wrote(&copy));
     let summary = Summary { cases: vec![case] };
-    let path = out.join("summary.json");
-    report::write_summary_json(&path, &summary)?;
-    events(AppEvent::Wrote(&path));
+    finish(dir, &summary, events)?;
     Ok(summary)
 }
 
@@ -394,6 +430,16 @@ pub fn run_certify(
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
     use crate::ocp::{NewtonOptions, SecondOrderOptions};
+    // The certificate must not be lost to an unwritable path found after minutes of work.
+    if let Some(path) = json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        report::probe_writable(path)?;
+    }
     let mut reports = Vec::new();
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
@@ -434,12 +480,6 @@ pub fn run_certify(
                 source,
             }
         })?;
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-                path: dir.to_path_buf(),
-                source,
-            })?;
-        }
         report::write_atomic(path, &text)?;
         events(AppEvent::Wrote(path));
     }
@@ -448,20 +488,24 @@ pub fn run_certify(
 
 /// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the
 /// accessibility rank test ([`crate::suslov::controllability`]) at `points` times along the
-/// optimal trajectory. Returns the text for people.
+/// optimal trajectory. Checks `points` and `rtol` before any work.
 pub fn run_rank_along(
     jobs: &[CaseJob],
     points: usize,
     rtol: f64,
     events: &mut dyn FnMut(AppEvent),
-) -> Result<String, AppError> {
+) -> Result<RankAlong, AppError> {
     use crate::suslov::controllability as c;
-    if points < 2 {
+    if !(2..=c::MAX_STATES).contains(&points) {
         return Err(AppError::InvalidArgument(format!(
-            "--points must be at least 2, got {points}"
+            "--points must be between 2 and {} (times sampled along the trajectory), got \
+             {points}",
+            c::MAX_STATES
         )));
     }
+    c::check_rtol(rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
     let mut text = String::new();
+    let mut all_accessible = true;
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
         let sol = match solve::solve(&job.problem, &job.options, &mut |e| {
@@ -470,6 +514,7 @@ pub fn run_rank_along(
             Ok(sol) => sol,
             Err(e) => {
                 text += &format!("case {}: the solve failed: {e}\n", job.name);
+                all_accessible = false;
                 events(AppEvent::CaseEnded { name: &job.name });
                 continue;
             }
@@ -499,6 +544,7 @@ pub fn run_rank_along(
             .collect();
         match c::rank_along(&sol.problem.inertia, &states, rtol) {
             Ok(r) => {
+                all_accessible &= r.min_rank == 4 && r.max_rank == 4;
                 text += &format!(
                     "case {}: rank of V {} at all {} times of [{a}, {b:.6}] (dim M = 4){}\n\
                      \x20 smallest significant singular value {:.4e} (t = {:.4}); largest \
@@ -523,9 +569,98 @@ pub fn run_rank_along(
                     violation,
                 );
             }
-            Err(e) => text += &format!("case {}: rank test failed: {e}\n", job.name),
+            Err(e) => {
+                all_accessible = false;
+                text += &format!("case {}: rank test failed: {e}\n", job.name);
+            }
         }
         events(AppEvent::CaseEnded { name: &job.name });
     }
-    Ok(text)
+    Ok(RankAlong {
+        text,
+        all_accessible,
+    })
+}
+
+/// What [`run_rank_along`] found.
+#[derive(Debug, Clone)]
+pub struct RankAlong {
+    /// The report for people.
+    pub text: String,
+    /// Every case solved and had rank 4 at every time tested.
+    pub all_accessible: bool,
+}
+
+/// Arguments of `suslov controllability` at given states (not `--along`).
+#[derive(Debug, Clone)]
+pub struct RankAtStates<'a> {
+    /// `--inertia`, `"I1,I2,I3"`.
+    pub inertia: &'a str,
+    /// `--omega` and `--xi`: one state.
+    pub state: Option<(&'a str, &'a str)>,
+    /// `--omega-a`: the energy of the sampled states.
+    pub omega_a: &'a str,
+    /// `--samples`.
+    pub samples: usize,
+    /// `--seed`.
+    pub seed: u64,
+    /// `--rtol`.
+    pub rtol: f64,
+}
+
+/// `suslov controllability` at one state or at sampled states of `M`: every argument is
+/// checked (named in the error) before any work; returns the table and its verdict.
+pub fn run_rank_at_states(
+    a: &RankAtStates,
+) -> Result<(String, crate::suslov::controllability::AccessibilityVerdict), AppError> {
+    use crate::suslov::controllability as c;
+    use crate::suslov::Inertia;
+    let arg = |flag: &str, e: crate::suslov::SuslovError| {
+        AppError::InvalidArgument(format!("{flag}: {e}"))
+    };
+    let vec3 = |flag: &str, text: &str| -> Result<nalgebra::Vector3<f64>, AppError> {
+        let v = c::parse_vec3(text).map_err(|e| arg(flag, e))?;
+        if v.iter().all(|x| x.is_finite()) {
+            Ok(v)
+        } else {
+            Err(AppError::InvalidArgument(format!(
+                "{flag}: {} is not three finite numbers",
+                crate::echo::echo(text)
+            )))
+        }
+    };
+    c::check_rtol(a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+    let diag = vec3("--inertia", a.inertia)?;
+    let inertia = Inertia::new(diag.into()).map_err(|e| arg("--inertia", e))?;
+    let states = match a.state {
+        Some((om, xi)) => vec![(vec3("--omega", om)?, vec3("--xi", xi)?)],
+        None => {
+            if !(1..=c::MAX_STATES).contains(&a.samples) {
+                return Err(AppError::InvalidArgument(format!(
+                    "--samples must be between 1 and {}, got {}",
+                    c::MAX_STATES,
+                    a.samples
+                )));
+            }
+            let om = vec3("--omega-a", a.omega_a)?;
+            let energy2 = inertia.apply(&om).dot(&om);
+            if om.iter().all(|x| *x == 0.0) {
+                return Err(AppError::InvalidArgument(
+                    "--omega-a = 0,0,0: the sampled states need a positive kinetic energy; \
+                     give a nonzero vector"
+                        .into(),
+                ));
+            }
+            if !(energy2.is_finite() && energy2 > f64::MIN_POSITIVE) {
+                return Err(AppError::InvalidArgument(format!(
+                    "twice the kinetic energy <I Omega_a, Omega_a> = {energy2:e} of --omega-a \
+                     with --inertia is not a positive finite number in f64; rescale --inertia \
+                     or --omega-a"
+                )));
+            }
+            c::sample_states_on_m(&inertia, &om, a.samples, a.seed)
+                .map_err(|e| arg("--omega-a", e))?
+        }
+    };
+    c::report_table(&inertia, &states, a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))
 }

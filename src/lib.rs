@@ -69,6 +69,7 @@ pub mod app;
 pub mod bvp;
 pub mod config;
 pub mod continuation;
+pub mod echo;
 pub mod ivp;
 pub mod model;
 pub mod ocp;

@@ -1,12 +1,26 @@
 //! `suslov`: the command line, a thin shell over [`suslov::app`].
+//!
+//! Exit statuses (README, "What happens on failure"):
+//!
+//! | status | meaning |
+//! |---|---|
+//! | 0 | success: every case converged and verified / certified / rank 4 on M |
+//! | 1 | error: a bad problem file or argument, an unwritable or busy output; nothing was solved, or the run stopped |
+//! | 2 | usage: the command line itself is malformed (clap) |
+//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not 4 on M |
+//! | 128 + n | stopped by signal n (130: SIGINT, 143: SIGTERM, 129: SIGHUP); temporary files removed, the output directory keeps its `INCOMPLETE` mark |
+//!
+//! Nothing here panics on a closed standard output or error (`suslov … | head -1`): text
+//! that cannot be written is dropped, the run goes on and writes its files.
 
-use std::io::IsTerminal;
+use std::io::{IsTerminal, Write};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use suslov::app::{self, AppEvent};
+use suslov::suslov::controllability::AccessibilityVerdict;
 use suslov::suslov::solve::Event;
 
 #[derive(Parser)]
@@ -82,32 +96,86 @@ struct ControllabilityArgs {
     /// Without --omega/--xi: sample states of M on the energy ellipsoid through this Omega.
     #[arg(long, default_value = "5,0,0", allow_hyphen_values = true)]
     omega_a: String,
-    /// Number of random states of M.
+    /// Number of random states of M (at most 100000).
     #[arg(long, default_value_t = 8)]
     samples: usize,
     /// Seed of the random states.
     #[arg(long, default_value_t = 1)]
     seed: u64,
-    /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1.
-    #[arg(long, default_value_t = suslov::suslov::controllability::RANK_RTOL)]
+    /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1; in [1e-14, 1e-3].
+    #[arg(long, allow_hyphen_values = true, default_value_t = suslov::suslov::controllability::RANK_RTOL)]
     rtol: f64,
     /// Instead: solve `paper` (both cases) or a problem file and evaluate the rank along the
     /// optimal trajectory (Omega(t), xi(t)) at --points times.
     #[arg(long, conflicts_with_all = ["omega", "xi"])]
     along: Option<PathBuf>,
-    /// Times sampled along the trajectory (with --along).
+    /// Times sampled along the trajectory (with --along; 2 to 100000).
     #[arg(long, default_value_t = 401, requires = "along")]
     points: usize,
 }
 
-fn run_controllability(a: &ControllabilityArgs) -> Result<String, suslov::suslov::SuslovError> {
-    use suslov::suslov::controllability as c;
-    let inertia = suslov::suslov::Inertia::new(c::parse_vec3(&a.inertia)?.into())?;
-    let states = match (&a.omega, &a.xi) {
-        (Some(om), Some(xi)) => vec![(c::parse_vec3(om)?, c::parse_vec3(xi)?)],
-        _ => c::sample_states_on_m(&inertia, &c::parse_vec3(&a.omega_a)?, a.samples, a.seed)?,
+/// How a run ended, as an exit status (the module docs).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Outcome {
+    /// 0.
+    Success,
+    /// 1: bad input, unwritable or busy output.
+    Error,
+    /// 3: results written, but not converged / not certified / not rank 4.
+    Negative,
+}
+
+impl Outcome {
+    fn code(self) -> ExitCode {
+        ExitCode::from(match self {
+            Outcome::Success => 0,
+            Outcome::Error => 1,
+            Outcome::Negative => 3,
+        })
+    }
+}
+
+/// Writes to standard error; a closed or broken stream drops the text (never a panic).
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
+/// Writes to standard output; a closed pipe drops the text (never a panic).
+fn out(text: &str) {
+    let mut stdout = std::io::stdout().lock();
+    let _ = stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush());
+}
+
+/// SIGINT, SIGTERM and SIGHUP end the process after removing the temporary files being
+/// written ([`suslov::report::remove_in_flight`]); an output directory keeps its
+/// `INCOMPLETE` mark (its lock goes with the process). A run killed outright (SIGKILL) leaves
+/// its temporaries to the next run into the same directory, which sweeps them.
+fn install_signal_handlers() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        say!("warning: cannot install signal handlers; an interrupted run may leave temporary files, which the next run into the same directory removes");
+        return;
     };
-    c::report_table(&inertia, &states, a.rtol)
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            let removed = suslov::report::remove_in_flight();
+            let name = match signal {
+                SIGINT => "SIGINT",
+                SIGTERM => "SIGTERM",
+                _ => "SIGHUP",
+            };
+            say!(
+                "interrupted by {name}: stopped ({} temporary file(s) removed); an output \
+                 directory being written is left marked INCOMPLETE",
+                removed.len()
+            );
+            std::process::exit(128 + signal);
+        }
+    });
 }
 
 /// Progress on stderr: a spinner per case on a terminal, log lines otherwise.
@@ -125,7 +193,7 @@ impl Reporter {
         }
         match &self.bar {
             Some(bar) => bar.println(text),
-            None => eprintln!("{text}"),
+            None => say!("{text}"),
         }
     }
 
@@ -243,6 +311,7 @@ impl Reporter {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    install_signal_handlers();
     if cli.verbose && !cli.quiet {
         // -v: structured logs (tracing) of every stage, continuation step, Newton step and
         // mesh pass on stderr, instead of the progress bar.
@@ -251,6 +320,9 @@ fn main() -> ExitCode {
             .with_max_level(tracing::Level::DEBUG)
             .with_target(false)
             .without_time()
+            // Its own fallback on a failed write is `eprintln!`, which panics on a closed
+            // stderr: drop such events instead.
+            .log_internal_errors(false)
             .init();
     }
     let mut reporter = Reporter {
@@ -259,35 +331,44 @@ fn main() -> ExitCode {
         bar: None,
         terminal: std::io::stderr().is_terminal(),
     };
-    let (result, out) = match cli.command {
+    let outcome = match cli.command {
         Command::Controllability(a) if a.along.is_some() => {
             let along = a.along.as_deref().unwrap_or(std::path::Path::new("paper"));
             let config = (along != std::path::Path::new("paper")).then_some(along);
             let result = app::case_jobs(config, None).and_then(|jobs| {
                 app::run_rank_along(&jobs, a.points, a.rtol, &mut |e| reporter.event(e))
             });
-            return match result {
-                Ok(text) => {
-                    print!("{text}");
-                    ExitCode::SUCCESS
+            match result {
+                Ok(r) => {
+                    out(&r.text);
+                    if r.all_accessible {
+                        Outcome::Success
+                    } else {
+                        Outcome::Negative
+                    }
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            };
+                Err(e) => fail(&e),
+            }
         }
         Command::Controllability(a) => {
-            return match run_controllability(&a) {
-                Ok(table) => {
-                    print!("{table}");
-                    ExitCode::SUCCESS
-                }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
+            let request = app::RankAtStates {
+                inertia: &a.inertia,
+                state: a.omega.as_deref().zip(a.xi.as_deref()),
+                omega_a: &a.omega_a,
+                samples: a.samples,
+                seed: a.seed,
+                rtol: a.rtol,
             };
+            match app::run_rank_at_states(&request) {
+                Ok((table, verdict)) => {
+                    out(&table);
+                    match verdict {
+                        AccessibilityVerdict::RankDeficient { .. } => Outcome::Negative,
+                        _ => Outcome::Success,
+                    }
+                }
+                Err(e) => fail(&e),
+            }
         }
         Command::Certify {
             config,
@@ -297,46 +378,59 @@ fn main() -> ExitCode {
             let result = app::case_jobs(config.as_deref(), tolerance).and_then(|jobs| {
                 app::run_certify(&jobs, json.as_deref(), &mut |e| reporter.event(e))
             });
-            return match result {
+            match result {
                 Ok(reports) => {
                     for r in &reports {
-                        print!("{}", r.text());
+                        out(&r.text());
                     }
                     if reports.iter().all(|r| r.verdict == "certified") {
-                        ExitCode::SUCCESS
+                        Outcome::Success
                     } else {
-                        eprintln!("not every case is certified as a local minimum");
-                        ExitCode::from(2)
+                        say!("not every case is certified as a local minimum");
+                        Outcome::Negative
                     }
                 }
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    ExitCode::FAILURE
-                }
-            };
+                Err(e) => fail(&e),
+            }
         }
-        Command::Paper { out } => (app::run_paper(&out, &mut |e| reporter.event(e)), out),
-        Command::Solve { config, out } => (
+        Command::Paper { out } => solved(
+            app::run_paper(&out, &mut |e| reporter.event(e)),
+            &out,
+            cli.quiet,
+        ),
+        Command::Solve { config, out } => solved(
             app::run_solve(&config, &out, &mut |e| reporter.event(e)),
-            out,
+            &out,
+            cli.quiet,
         ),
     };
+    outcome.code()
+}
+
+/// Prints the error of a job that stopped.
+fn fail(e: &app::AppError) -> Outcome {
+    say!("error: {e}");
+    Outcome::Error
+}
+
+/// The outcome of `paper` / `solve`.
+fn solved(
+    result: Result<suslov::report::Summary, app::AppError>,
+    out: &std::path::Path,
+    quiet: bool,
+) -> Outcome {
     match result {
         Ok(summary) => {
-            let failed = summary.cases.iter().any(|c| c.status != "converged");
-            if !cli.quiet {
-                eprintln!("wrote {}", out.join("summary.json").display());
+            if !quiet {
+                say!("wrote {}", out.join(suslov::report::SUMMARY_FILE).display());
             }
-            if failed {
-                eprintln!("error: not every case converged (see summary.json)");
-                ExitCode::FAILURE
+            if summary.cases.iter().all(|c| c.status == "converged") {
+                Outcome::Success
             } else {
-                ExitCode::SUCCESS
+                say!("not every case converged (see summary.json)");
+                Outcome::Negative
             }
         }
-        Err(e) => {
-            eprintln!("error: {e}");
-            ExitCode::FAILURE
-        }
+        Err(e) => fail(&e),
     }
 }

@@ -213,7 +213,9 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
 fn rank_along_a_solved_trajectory_is_four() {
     let config = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml");
     let jobs = suslov::app::case_jobs(Some(&config), None).expect("jobs");
-    let text = suslov::app::run_rank_along(&jobs, 51, 1e-9, &mut |_| {}).expect("runs");
+    let result = suslov::app::run_rank_along(&jobs, 51, 1e-9, &mut |_| {}).expect("runs");
+    assert!(result.all_accessible);
+    let text = result.text;
     eprintln!("{text}");
     assert!(text.contains("rank of V = 4 at all 51 times"), "{text}");
     assert!(text.contains("accessible along the whole optimal trajectory"));

@@ -182,8 +182,17 @@ fn a_failing_stage_writes_a_marked_partial_result_and_says_where() {
         ..Default::default()
     };
     let problem = paper::problem(0.01);
-    let summary = suslov::app::run_case("capped", &problem, &dir, &options, &mut |_| {})
-        .expect("outputs written");
+    let mut out = suslov::report::OutputDir::open(&dir).expect("output directory");
+    let summary = suslov::app::run_case(
+        "capped",
+        &problem,
+        &mut out,
+        std::path::Path::new(""),
+        &options,
+        &mut |_| {},
+    )
+    .expect("outputs written");
+    drop(out);
     assert!(
         summary.status.starts_with("partial: stage 'polish'"),
         "{}",

@@ -1,22 +1,73 @@
 //! Atomic file replacement: a file is either absent, its old complete contents, or its new
 //! complete contents; never a half-written mixture, even if the process dies midway.
+//!
+//! Temporary files are named `.suslov-tmp-<pid>-<n>` (independent of the target's name, so a
+//! target name of up to the file system's limit still works) and registered while they exist:
+//! [`remove_in_flight`] deletes them (the command line calls it when SIGINT/SIGTERM arrives),
+//! and [`is_temporary_name`] recognises the leftovers of a run that was killed outright
+//! (SIGKILL, power loss), which the next run into the same directory sweeps
+//! ([`super::OutputDir`]).
 
 use super::ReportError;
+use std::collections::BTreeSet;
 use std::fs::{self, File, OpenOptions};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Mutex, MutexGuard};
 
 /// Distinguishes temporary files made by concurrent writers of one process.
 static COUNTER: AtomicU64 = AtomicU64::new(0);
 
+/// Temporary files that exist right now (created, not yet renamed or removed).
+static IN_FLIGHT: Mutex<BTreeSet<PathBuf>> = Mutex::new(BTreeSet::new());
+
+/// Prefix of every temporary file name.
+pub const TEMP_PREFIX: &str = ".suslov-tmp-";
+
+fn in_flight() -> MutexGuard<'static, BTreeSet<PathBuf>> {
+    // A panic while holding the lock leaves the set itself consistent.
+    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Whether `name` is a temporary file of [`write_atomic`]: `.suslov-tmp-<pid>-<n>`, or the
+/// `.<file>.tmp.<pid>.<n>` of earlier versions.
+pub fn is_temporary_name(name: &str) -> bool {
+    let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
+    if let Some(rest) = name.strip_prefix(TEMP_PREFIX) {
+        return matches!(rest.split_once('-'), Some((p, n)) if digits(p) && digits(n));
+    }
+    // Earlier versions: `.<name>.tmp.<pid>.<n>`.
+    let mut parts = name.rsplitn(4, '.');
+    let (n, p, tmp, head) = (parts.next(), parts.next(), parts.next(), parts.next());
+    matches!((n, p, tmp, head), (Some(n), Some(p), Some("tmp"), Some(h))
+        if digits(n) && digits(p) && h.starts_with('.') && h.len() > 1)
+}
+
+/// Removes every temporary file this process is writing and keeps new ones from being
+/// created; for a signal handler that is about to end the process. Returns the paths removed.
+///
+/// The registry stays locked afterwards (the lock guard is leaked), so a writer on another
+/// thread blocks before it creates or renames anything: the process exits with no temporary
+/// file of its own left behind.
+pub fn remove_in_flight() -> Vec<PathBuf> {
+    let guard = in_flight();
+    let removed: Vec<PathBuf> = guard
+        .iter()
+        .filter(|p| fs::remove_file(p).is_ok())
+        .cloned()
+        .collect();
+    std::mem::forget(guard);
+    removed
+}
+
 /// Writes `bytes` to `path` atomically.
 ///
 /// The data go to a fresh temporary file in the same directory (named
-/// `.<file name>.tmp.<pid>.<n>`, created exclusively), which is flushed to disk (`fsync`) and
-/// then renamed over `path`; on Unix the directory is synced as well so that the rename
-/// itself is durable. If anything fails, the temporary file is removed and the previous
-/// contents of `path`, if any, are untouched.
+/// `.suslov-tmp-<pid>-<n>`, created exclusively), which is flushed to disk (`fsync`) and then
+/// renamed over `path`; on Unix the directory is synced as well so that the rename itself is
+/// durable. If anything fails, the temporary file is removed and the previous contents of
+/// `path`, if any, are untouched.
 ///
 /// The parent directory must exist: it is **not** created (a missing directory is an
 /// [`ReportError::Io`] naming `path`). Callers that own an output directory create it
@@ -27,9 +78,11 @@ static COUNTER: AtomicU64 = AtomicU64::new(0);
 /// and carrying the OS error) if creating, writing, syncing or renaming fails.
 pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), ReportError> {
     let path = path.as_ref();
-    let name = path.file_name().ok_or_else(|| ReportError::NotAFile {
-        path: path.to_path_buf(),
-    })?;
+    if path.file_name().is_none() {
+        return Err(ReportError::NotAFile {
+            path: path.to_path_buf(),
+        });
+    }
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
         _ => PathBuf::from("."),
@@ -39,29 +92,67 @@ pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), ReportEr
         source,
     };
     let n = COUNTER.fetch_add(1, Ordering::Relaxed);
-    let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
-    tmp_name.push(format!(".tmp.{}.{}", std::process::id(), n));
-    let tmp = dir.join(tmp_name);
+    let tmp = dir.join(format!("{TEMP_PREFIX}{}-{n}", std::process::id()));
 
-    let mut file = OpenOptions::new()
+    // Created and renamed under the registry's lock, so that a signal handler calling
+    // [`remove_in_flight`] sees every temporary file that exists.
+    let mut file = {
+        let mut registry = in_flight();
+        let file = OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(io_err)?;
+        registry.insert(tmp.clone());
+        file
+    };
+    let written = file.write_all(bytes).and_then(|()| file.sync_all());
+    drop(file);
+    let result = {
+        let mut registry = in_flight();
+        let result = written.and_then(|()| fs::rename(&tmp, path));
+        if result.is_err() {
+            // Best effort: the temporary file must not be left behind.
+            let _ = fs::remove_file(&tmp);
+        }
+        registry.remove(&tmp);
+        result
+    };
+    result.map_err(io_err)?;
+    sync_dir(&dir);
+    Ok(())
+}
+
+/// Checks, before any work, that [`write_atomic`] can later write `path`: its directory
+/// exists (it is **not** created) and a temporary file can be created there (it is removed
+/// again), and `path` is not a directory.
+///
+/// # Errors
+/// As [`write_atomic`]; [`ReportError::NotAFile`] if `path` is a directory.
+pub fn probe_writable(path: impl AsRef<Path>) -> Result<(), ReportError> {
+    let path = path.as_ref();
+    if path.file_name().is_none() || path.is_dir() {
+        return Err(ReportError::NotAFile {
+            path: path.to_path_buf(),
+        });
+    }
+    let dir = match path.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let n = COUNTER.fetch_add(1, Ordering::Relaxed);
+    let tmp = dir.join(format!("{TEMP_PREFIX}{}-{n}", std::process::id()));
+    let mut registry = in_flight();
+    OpenOptions::new()
         .write(true)
         .create_new(true)
         .open(&tmp)
-        .map_err(io_err)?;
-    let written = file
-        .write_all(bytes)
-        .and_then(|()| file.sync_all())
-        .and_then(|()| {
-            drop(file);
-            fs::rename(&tmp, path)
-        });
-    if let Err(e) = written {
-        // Best effort: the temporary file must not be left behind.
-        let _ = fs::remove_file(&tmp);
-        return Err(io_err(e));
-    }
-    sync_dir(&dir);
+        .map_err(|source| ReportError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
+    let _ = fs::remove_file(&tmp);
+    registry.remove(&tmp);
     Ok(())
 }
 
@@ -139,6 +230,37 @@ mod tests {
         assert!(err.to_string().contains("occupied"), "{err}");
         assert_eq!(entries(&d), vec!["occupied".to_string()]);
         assert_eq!(fs::read(target.join("inner")).unwrap(), b"keep");
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn probing_finds_unwritable_targets_and_leaves_nothing() {
+        let d = scratch("probe");
+        probe_writable(d.join("x.json")).unwrap();
+        assert!(entries(&d).is_empty());
+        assert!(probe_writable(d.join("missing").join("x.json")).is_err());
+        assert!(matches!(
+            probe_writable(&d),
+            Err(ReportError::NotAFile { .. })
+        ));
+        fs::remove_dir_all(&d).unwrap();
+    }
+
+    #[test]
+    fn temporary_names_are_recognised_and_independent_of_the_target_name() {
+        assert!(is_temporary_name(".suslov-tmp-123-0"));
+        assert!(is_temporary_name(".trajectory.npy.tmp.4242.17"));
+        assert!(!is_temporary_name("trajectory.npy"));
+        assert!(!is_temporary_name(".suslov-tmp-12x-0"));
+        assert!(!is_temporary_name(".suslov-tmp-12"));
+        assert!(!is_temporary_name("a.tmp.1.2"));
+        assert!(!is_temporary_name(".tmp.1.2"));
+        // A target name near the 255-byte limit of common file systems: the temporary name
+        // does not grow with it.
+        let d = scratch("long");
+        let name = "x".repeat(250) + ".json";
+        write_atomic(d.join(&name), b"{}").unwrap();
+        assert_eq!(entries(&d), vec![name]);
         fs::remove_dir_all(&d).unwrap();
     }
 

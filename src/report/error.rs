@@ -19,6 +19,18 @@ pub enum ReportError {
         #[source]
         source: std::io::Error,
     },
+    /// Another run holds the output directory's lock.
+    #[error(
+        "{} is in use by another suslov run ({holder}); wait for it to finish or choose another \
+         --out directory",
+        dir.display()
+    )]
+    Busy {
+        /// The output directory.
+        dir: PathBuf,
+        /// What the lock file says about its holder (`pid N`), if anything.
+        holder: String,
+    },
     /// A path that cannot be the target of a file write (for example `/` or `..`).
     #[error("not a file path: {}", path.display())]
     NotAFile {

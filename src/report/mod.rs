@@ -42,10 +42,11 @@ mod certificate;
 mod csv;
 mod error;
 mod figures;
+mod outdir;
 mod summary;
 mod table;
 
-pub use atomic::write_atomic;
+pub use atomic::{is_temporary_name, probe_writable, remove_in_flight, write_atomic, TEMP_PREFIX};
 pub use certificate::CertificateReport;
 pub use csv::{
     parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, write_trajectory_csv,
@@ -55,6 +56,7 @@ pub use error::ReportError;
 pub use figures::{
     render_figure_bytes, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
 };
+pub use outdir::{OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE};
 pub use summary::{
     finite_or_null, opt_finite_or_null, write_summary_json, CaseSummary, StabilityRun,
     StageSummary, Summary,

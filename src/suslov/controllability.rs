@@ -312,27 +312,100 @@ pub fn sample_states_on_m(
 
 /// Parses `"a,b,c"` into a vector (for the command line).
 pub fn parse_vec3(s: &str) -> Result<Vector3<f64>, SuslovError> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| p.trim().parse::<f64>())
-        .collect::<Result<_, _>>()
-        .map_err(|e| SuslovError::InvalidInput {
-            what: format!("{s:?} is not three comma-separated numbers: {e}"),
-        })?;
-    match v[..] {
-        [a, b, c] => Ok(Vector3::new(a, b, c)),
-        _ => Err(SuslovError::InvalidInput {
-            what: format!("{s:?} has {} entries, expected 3", v.len()),
-        }),
+    let parts: Vec<&str> = s.splitn(4, ',').collect();
+    if parts.len() != 3 {
+        return Err(SuslovError::InvalidInput {
+            what: format!(
+                "{} has {} comma-separated entries, expected 3 (e.g. 1,2,3)",
+                crate::echo::echo(s),
+                s.split(',').count()
+            ),
+        });
+    }
+    let mut v = [0.0; 3];
+    for (x, p) in v.iter_mut().zip(&parts) {
+        *x = p
+            .trim()
+            .parse::<f64>()
+            .map_err(|e| SuslovError::InvalidInput {
+                what: format!(
+                    "{} is not three comma-separated numbers: {} is not a number ({e})",
+                    crate::echo::echo(s),
+                    crate::echo::echo(p.trim())
+                ),
+            })?;
+    }
+    Ok(Vector3::from(v))
+}
+
+/// A state counts as on `M` when `Ω ≠ 0`, `ξ ≠ 0` and `|⟨Ω, ξ⟩| < ON_M_RTOL · |Ω||ξ|`.
+pub const ON_M_RTOL: f64 = 1e-12;
+
+/// The drift counts as nonzero at a state when `|f| > DRIFT_RTOL · |Ω|²` (`f` is quadratic in
+/// `Ω`; round-off in `f` is ~1e-16·|Ω|²).
+pub const DRIFT_RTOL: f64 = 1e-12;
+
+/// Accepted range of the relative rank threshold `rtol`: below it round-off (~1e-16·σ₁ in
+/// the structurally zero singular values) could be counted; above it a genuine small
+/// `σ₄` (≥ 0.17 at the paper's scale, see the module docs) could be missed.
+pub const RTOL_RANGE: (f64, f64) = (1e-14, 1e-3);
+
+/// Largest number of states `suslov controllability` evaluates (`--samples`, `--points`):
+/// one row of text each; 1e5 rows take about a second and a few MB.
+pub const MAX_STATES: usize = 100_000;
+
+/// Checks a relative rank threshold: finite and in [`RTOL_RANGE`].
+pub fn check_rtol(rtol: f64) -> Result<f64, SuslovError> {
+    let (lo, hi) = RTOL_RANGE;
+    if rtol.is_finite() && (lo..=hi).contains(&rtol) {
+        Ok(rtol)
+    } else {
+        Err(SuslovError::InvalidInput {
+            what: format!(
+                "--rtol = {rtol}: the relative rank threshold must be a number in [{lo:e}, \
+                 {hi:e}] (default {RANK_RTOL:e}); below, round-off counts as rank, above, \
+                 genuine singular values are dropped"
+            ),
+        })
     }
 }
 
-/// The `suslov controllability` table: one row per state `(Ω, ξ)` with `⟨Ω, ξ⟩`, the rank,
-/// the singular values of `V` and `|f|`, then a summary and the theorem it checks.
-pub fn report_table(inertia: &Inertia, states: &[State], rtol: f64) -> Result<String, SuslovError> {
+/// What the states tested show about the theorem (rank `V` = 4 = dim `M` on `M`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum AccessibilityVerdict {
+    /// Rank 4 at every state of `M` tested (and there was at least one).
+    Accessible {
+        /// States of `M` tested.
+        on_m: usize,
+    },
+    /// Some state of `M` has a numerical rank other than 4.
+    RankDeficient {
+        /// States of `M` tested.
+        on_m: usize,
+        /// Those whose rank is not 4.
+        failing: usize,
+    },
+    /// No state tested lies on `M`: the theorem says nothing about them.
+    NoStateOnM,
+}
+
+/// Whether `(Ω, ξ)` lies on `M` in the sense of [`ON_M_RTOL`].
+pub fn is_on_m(omega: &Vector3<f64>, xi: &Vector3<f64>) -> bool {
+    let scale = omega.norm() * xi.norm();
+    scale > 0.0 && scale.is_finite() && omega.dot(xi).abs() < ON_M_RTOL * scale
+}
+
+/// The `suslov controllability` table: one row per state `(Ω, ξ)` with `⟨Ω, ξ⟩`, whether it
+/// is on `M`, the rank, the singular values of `V` and `|f|`; then what the numbers show
+/// (every sentence follows from the rows printed) and the theorem it checks.
+pub fn report_table(
+    inertia: &Inertia,
+    states: &[State],
+    rtol: f64,
+) -> Result<(String, AccessibilityVerdict), SuslovError> {
     use std::fmt::Write;
+    check_rtol(rtol)?;
     let d = inertia.diag();
-    let spherical = d[0] == d[1] && d[1] == d[2];
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -343,11 +416,11 @@ pub fn report_table(inertia: &Inertia, states: &[State], rtol: f64) -> Result<St
     );
     let _ = writeln!(
         s,
-        "{:>3}  {:>26}  {:>26}  {:>9}  {:>4}  {:>54}  {:>9}",
-        "#", "Omega", "xi", "<Om,xi>", "rank", "singular values of V", "|f|"
+        "{:>3}  {:>26}  {:>26}  {:>9}  {:>4}  {:>4}  {:>54}  {:>9}",
+        "#", "Omega", "xi", "<Om,xi>", "on M", "rank", "singular values of V", "|f|"
     );
-    let mut ranks = Vec::with_capacity(states.len());
-    let mut min_drift = f64::INFINITY;
+    // (rank, on M, drift nonzero, |f|)
+    let mut rows = Vec::with_capacity(states.len());
     for (k, (om, xi)) in states.iter().enumerate() {
         let r = rank_report(inertia, om, xi, rtol)?;
         let v3 = |v: &Vector3<f64>| format!("[{:7.3}, {:7.3}, {:7.3}]", v[0], v[1], v[2]);
@@ -357,62 +430,95 @@ pub fn report_table(inertia: &Inertia, states: &[State], rtol: f64) -> Result<St
             .map(|v| format!("{v:8.2e}"))
             .collect::<Vec<_>>()
             .join(" ");
+        let on_m = is_on_m(om, xi);
         let _ = writeln!(
             s,
-            "{:>3}  {:>26}  {:>26}  {:>9.1e}  {:>4}  {:>54}  {:>9.3e}",
+            "{:>3}  {:>26}  {:>26}  {:>9.1e}  {:>4}  {:>4}  {:>54}  {:>9.3e}",
             k,
             v3(om),
             v3(xi),
             r.constraint,
+            if on_m { "yes" } else { "no" },
             r.rank,
             sv,
             r.drift_norm
         );
-        ranks.push((r.rank, r.relative_constraint.abs() < 1e-12));
-        min_drift = min_drift.min(r.drift_norm);
+        let drifts = r.drift_norm > DRIFT_RTOL * om.norm_squared();
+        rows.push((r.rank, on_m, drifts, r.drift_norm));
     }
-    let on_m: Vec<usize> = ranks.iter().filter(|r| r.1).map(|r| r.0).collect();
-    let off_m: Vec<usize> = ranks.iter().filter(|r| !r.1).map(|r| r.0).collect();
-    let span = |v: &[usize]| match (v.iter().min(), v.iter().max()) {
+    let on_m: Vec<_> = rows.iter().filter(|r| r.1).collect();
+    let off_m: Vec<_> = rows.iter().filter(|r| !r.1).collect();
+    let span = |v: &[&(usize, bool, bool, f64)]| match (
+        v.iter().map(|r| r.0).min(),
+        v.iter().map(|r| r.0).max(),
+    ) {
         (Some(a), Some(b)) if a == b => format!("{a}"),
         (Some(a), Some(b)) => format!("{a}..{b}"),
         _ => "-".into(),
     };
+    let failing = on_m.iter().filter(|r| r.0 != 4).count();
+    let verdict = if on_m.is_empty() {
+        AccessibilityVerdict::NoStateOnM
+    } else if failing == 0 {
+        AccessibilityVerdict::Accessible { on_m: on_m.len() }
+    } else {
+        AccessibilityVerdict::RankDeficient {
+            on_m: on_m.len(),
+            failing,
+        }
+    };
     let _ = writeln!(
         s,
-        "\nrank on M (|<Om,xi>| < 1e-12 |Om||xi|): {} ({} states); off M: {} ({} states)",
+        "\nrank on M (Omega != 0, xi != 0, |<Om,xi>| < {ON_M_RTOL:e} |Om||xi|): {} ({} states); \
+         off M: {} ({} states)",
         span(&on_m),
         on_m.len(),
         span(&off_m),
         off_m.len()
     );
+    let max_f = on_m.iter().map(|r| r.3).fold(0.0, f64::max);
+    let with_drift = on_m.iter().filter(|r| r.2).count();
+    match verdict {
+        AccessibilityVerdict::NoStateOnM => {
+            let _ = writeln!(
+                s,
+                "No state tested lies on M: the theorem below says nothing about them (off M \
+                 the rank is 5 generically, 3 at Omega = 0)."
+            );
+        }
+        AccessibilityVerdict::RankDeficient { on_m, failing } => {
+            let _ = writeln!(
+                s,
+                "rank V != 4 at {failing} of the {on_m} states of M: NOT consistent with the \
+                 theorem at this threshold (check --rtol and the scale of xi, |xi| ~ 1)."
+            );
+        }
+        AccessibilityVerdict::Accessible { on_m } => {
+            let drift = if with_drift == 0 {
+                format!(
+                    "the drift vanishes at all of them (max |f| {max_f:.1e} <= {DRIFT_RTOL:e} \
+                     |Omega|^2): driftless there, so the rank condition gives controllability \
+                     on M"
+                )
+            } else {
+                format!(
+                    "the drift is nonzero at {with_drift} of them (max |f| {max_f:.3e}): the \
+                     system has drift and the rank condition gives accessibility"
+                )
+            };
+            let _ = writeln!(
+                s,
+                "rank V = 4 = dim M at all {on_m} states of M tested; {drift}."
+            );
+        }
+    }
     let _ = writeln!(
         s,
         "Theorem (paper section 4.3): rank V = 4 = dim M at every point of \
-         M = {{1/2 <I Om, Om> = e_S > 0, <Om, xi> = 0, xi != 0}};"
+         M = {{1/2 <I Om, Om> = e_S > 0, <Om, xi> = 0, xi != 0}}; off M the rank is 5 \
+         (only <Om, xi> is invariant), at Omega = 0 it is 3."
     );
-    let _ = writeln!(
-        s,
-        "  off M (generic x in R^6) the rank is 5 (only <Om, xi> is invariant); at Omega = 0 it is 3."
-    );
-    if spherical {
-        let _ = writeln!(
-            s,
-            "I = c Id: the drift f vanishes (max |f| here {:.1e}), the system is driftless and controllable on M.",
-            states
-                .iter()
-                .map(|(o, x)| control_fields(inertia, o, x).map(|f| f.drift.norm()))
-                .collect::<Result<Vec<_>, _>>()?
-                .into_iter()
-                .fold(0.0, f64::max)
-        );
-    } else {
-        let _ = writeln!(
-            s,
-            "I != c Id: the system has drift (f != 0 at generic points of M; min |f| here {min_drift:.3e}) and is accessible."
-        );
-    }
-    Ok(s)
+    Ok((s, verdict))
 }
 
 #[cfg(test)]
@@ -655,13 +761,50 @@ mod tests {
             assert_eq!(rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap().rank, 4);
         }
         assert!(sample_states_on_m(&inertia, &Vector3::zeros(), 1, 7).is_err());
-        let table = report_table(
+        let (table, verdict) = report_table(
             &inertia,
             &sample_states_on_m(&inertia, &oa, 3, 1).unwrap(),
             1e-9,
+        )
+        .unwrap();
+        assert!(
+            table.contains("): 4 (3 states); off M: - (0 states)"),
+            "{table}"
         );
-        assert!(table
-            .unwrap()
-            .contains("rank on M (|<Om,xi>| < 1e-12 |Om||xi|): 4 (3 states)"));
+        assert_eq!(verdict, AccessibilityVerdict::Accessible { on_m: 3 });
+        assert!(
+            table.contains("the drift is nonzero at 3 of them"),
+            "{table}"
+        );
+    }
+
+    #[test]
+    fn the_verdict_follows_from_the_rows() {
+        let inertia = Inertia::paper();
+        let xi = Vector3::new(0.0, 1.0, 0.0);
+        // At rest: not on M (rank 3); the table must not claim accessibility or drift.
+        let (text, verdict) = report_table(&inertia, &[(Vector3::zeros(), xi)], RANK_RTOL).unwrap();
+        assert_eq!(verdict, AccessibilityVerdict::NoStateOnM);
+        assert!(!text.contains("accessib"), "{text}");
+        assert!(text.contains("No state tested lies on M"), "{text}");
+        // On a principal axis the drift vanishes: on M with rank 4 but no drift.
+        let (text, verdict) =
+            report_table(&inertia, &[(Vector3::new(5.0, 0.0, 0.0), xi)], RANK_RTOL).unwrap();
+        assert_eq!(verdict, AccessibilityVerdict::Accessible { on_m: 1 });
+        assert!(text.contains("the drift vanishes at all of them"), "{text}");
+        assert!(!text.contains("has drift"), "{text}");
+        // Off M.
+        let (_, verdict) = report_table(
+            &inertia,
+            &[(Vector3::new(1.0, 1.0, 0.0), Vector3::new(1.0, 0.0, 0.0))],
+            RANK_RTOL,
+        )
+        .unwrap();
+        assert_eq!(verdict, AccessibilityVerdict::NoStateOnM);
+        // A threshold that counts round-off: rejected, not "rank 5 on M".
+        for bad in [f64::NAN, f64::INFINITY, 2.0, -1.0, 0.0, 1e-20, 0.5] {
+            let err = report_table(&inertia, &[(Vector3::x(), xi)], bad).unwrap_err();
+            assert!(err.to_string().contains("--rtol"), "{err}");
+        }
     }
 }

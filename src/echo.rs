@@ -1,0 +1,35 @@
+//! Quoting user input in messages: never more than a few hundred characters of it.
+//!
+//! An error names what was wrong with an input and shows the input, but a hostile or
+//! accidental input can be megabytes on one line (a CSV line, a TOML value, a command-line
+//! argument); echoing it whole floods the terminal and hides the message.
+
+/// Characters of input shown at most.
+pub const ECHO_MAX_CHARS: usize = 200;
+
+/// `text` quoted (Rust debug syntax), cut after [`ECHO_MAX_CHARS`] characters with `…` and the
+/// total length.
+pub fn echo(text: &str) -> String {
+    match text.char_indices().nth(ECHO_MAX_CHARS) {
+        Some((cut, _)) => format!(
+            "{:?}… ({} characters in all)",
+            &text[..cut],
+            text.chars().count()
+        ),
+        None => format!("{text:?}"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn long_input_is_cut() {
+        assert_eq!(echo("1,2"), "\"1,2\"");
+        let long = "é".repeat(10_000);
+        let e = echo(&long);
+        assert!(e.chars().count() < ECHO_MAX_CHARS + 40, "{e}");
+        assert!(e.ends_with("(10000 characters in all)"), "{e}");
+    }
+}
