@@ -70,6 +70,12 @@ impl OutputDir {
             let path = path.to_path_buf();
             move |source: std::io::Error| ReportError::Io { path, source }
         };
+        if root.exists() && !root.is_dir() {
+            return Err(ReportError::InvalidInput(format!(
+                "the output directory {} exists and is not a directory; choose another --out",
+                root.display()
+            )));
+        }
         fs::create_dir_all(&root).map_err(io(&root))?;
         let lock_path = root.join(LOCK_FILE);
         let mut lock = OpenOptions::new()
