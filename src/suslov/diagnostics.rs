@@ -192,29 +192,38 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
     d
 }
 
-/// Re-integrate Suslov's pure equations with the computed control and run the paper's
-/// stability experiment (perturbed `ξ̇`: relative modulation `eps sin(3t)` with eps = 1e-3,
-/// and an additive `1e-3` along `(1,1,1)/√3`).
-pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
-    let problem = &sol.problem;
-    let (a, b) = (problem.t0, sol.terminal_time());
-    let control = |t: f64| -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> {
+/// The computed control `t ↦ (ξ(t), ξ̇(t))` of `sol` (clamped to `[a, b]`).
+fn control_of(
+    sol: &SuslovSolution,
+) -> impl Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + '_ {
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    move |t: f64| {
         let y = sol.state(t.clamp(a, b));
         Ok((
             Vector3::new(y[3], y[4], y[5]),
             Vector3::new(y[6], y[7], y[8]),
         ))
-    };
-    let grid = fine_grid(&sol.bvp.x, 2);
-    let times: Vec<f64> = grid.iter().map(|s| a + s * sol.t_span).collect();
-    let options = IvpOptions::default();
+    }
+}
+
+/// Re-integrate Suslov's pure equations with the computed control and compare with the BVP's
+/// `Ω` at the points of `fine_grid(mesh, 2)` ([`Reintegration::stability`] left empty; see
+/// [`reintegrate_check`] for the full check).
+pub fn reintegrate_difference(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let control = control_of(sol);
+    let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
+        .iter()
+        .map(|s| a + s * sol.t_span)
+        .collect();
     let run = reintegrate(
         &problem.inertia,
         &problem.omega_a,
         (a, b),
         &control,
         &times,
-        &options,
+        &IvpOptions::default(),
     )?;
     let reference: Vec<Vector3<f64>> = times
         .iter()
@@ -224,7 +233,27 @@ pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovEr
         })
         .collect();
     let cmp = compare(&run, &reference, &problem.ellipsoid())?;
-    let mut stability = Vec::new();
+    Ok(Reintegration {
+        max_abs_diff: cmp.max_abs_diff,
+        t_max_abs_diff: cmp.t_max_abs_diff,
+        max_rel_energy_drift: cmp.max_rel_energy_drift,
+        stability: Vec::new(),
+    })
+}
+
+/// Re-integrate Suslov's pure equations with the computed control ([`reintegrate_difference`])
+/// and run the paper's stability experiment (perturbed `ξ̇`: relative modulation
+/// `eps sin(3t)` with eps = 1e-3, and an additive `1e-3` along `(1,1,1)/√3`).
+pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
+    let mut out = reintegrate_difference(sol)?;
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let control = control_of(sol);
+    let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
+        .iter()
+        .map(|s| a + s * sol.t_span)
+        .collect();
+    let options = IvpOptions::default();
     for (label, perturbation) in [
         (
             "xi_dot * (1 + 1e-3 sin 3t)",
@@ -247,12 +276,7 @@ pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovEr
             &times,
             &options,
         )?;
-        stability.push((label.to_string(), rep));
+        out.stability.push((label.to_string(), rep));
     }
-    Ok(Reintegration {
-        max_abs_diff: cmp.max_abs_diff,
-        t_max_abs_diff: cmp.t_max_abs_diff,
-        max_rel_energy_drift: cmp.max_rel_energy_drift,
-        stability,
-    })
+    Ok(out)
 }
