@@ -28,13 +28,14 @@ use std::time::Instant;
 
 use crate::config::{self, ConfigError};
 use crate::report::{
-    self, CaseSummary, CertificateReport, FigureFormat, FigureOptions, ReportError, StabilityRun,
-    StageSummary, Summary, TrajectoryTable,
+    self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, ReportError,
+    StabilityRun, StageSummary, Summary, TrajectoryTable,
 };
 use crate::suslov::diagnostics::{diagnose, reintegrate_check};
 use crate::suslov::paper::{self, PaperCase};
 use crate::suslov::problem::SuslovProblem;
 use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
+use crate::suslov::verify::{Verdict, Verification};
 
 /// Points of the output grid (trajectory.csv and figures).
 pub const OUTPUT_POINTS: usize = 2001;
@@ -112,13 +113,30 @@ fn stage_summaries(sol: &SuslovSolution) -> Vec<StageSummary> {
             steps: s.steps,
             newton_iterations: s.newton_iterations,
             failures_recovered: s.failures_recovered,
+            outcome: s.outcome.to_string(),
         })
         .collect()
 }
 
-/// Diagnose `sol` and fill a case summary (status "converged").
+/// Diagnose and verify `sol` and fill a case summary: status "converged" only if every
+/// check of [`crate::suslov::verify`] passes at the solution's requested tolerance,
+/// "unverified: …" otherwise (the caller overrides it for a partial result).
 pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSummary {
     let d = diagnose(sol);
+    let reintegration = reintegrate_check(sol);
+    let verification = Verification::new(
+        &d,
+        reintegration
+            .as_ref()
+            .map(|r| r.max_abs_diff)
+            .map_err(|e| e.to_string()),
+        sol.problem.omega_b.norm(),
+        sol.tolerance,
+    );
+    let status = match verification.verdict() {
+        Verdict::Verified => CaseStatus::Converged,
+        Verdict::Unverified { reason } => CaseStatus::Unverified(reason),
+    };
     let mut c = CaseSummary {
         name: name.to_string(),
         eta: sol.problem.weights.eta,
@@ -134,7 +152,8 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
         continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
         newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
         wall_seconds,
-        status: "converged".to_string(),
+        status: status.to_string(),
+        verification: Some((&verification).into()),
         stages: stage_summaries(sol),
         ..Default::default()
     };
@@ -156,7 +175,7 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
             "desired_energy_deviation": finite(sol.start.desired_energy_deviation),
         }),
     );
-    match reintegrate_check(sol) {
+    match reintegration {
         Ok(r) => {
             c.reintegration_max_diff = Some(r.max_abs_diff);
             c.stability = r
@@ -263,10 +282,10 @@ pub fn run_case(
             partial,
         }) => {
             let mut s = summarize(name, &partial, clock.elapsed().as_secs_f64());
-            s.status = format!(
-                "partial: stage '{stage}' stopped at {parameter} = {reached} (target {target}): \
-                 {reason}"
-            );
+            s.status = CaseStatus::Partial(format!(
+                "stage '{stage}' stopped at {parameter} = {reached} (target {target}): {reason}"
+            ))
+            .to_string();
             write_case_outputs(dir, &partial, name, true, events)?;
             s
         }
@@ -282,7 +301,7 @@ pub fn run_case(
             omega_b_error: f64::NAN,
             max_residual: f64::NAN,
             wall_seconds: clock.elapsed().as_secs_f64(),
-            status: format!("failed: {e}"),
+            status: CaseStatus::Failed(e.to_string()).to_string(),
             ..Default::default()
         },
     };

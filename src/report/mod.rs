@@ -56,8 +56,8 @@ pub use figures::{
     render_figure_bytes, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
 };
 pub use summary::{
-    finite_or_null, opt_finite_or_null, write_summary_json, CaseSummary, StabilityRun,
-    StageSummary, Summary,
+    finite_or_null, opt_finite_or_null, write_summary_json, CaseStatus, CaseSummary, CheckSummary,
+    StabilityRun, StageSummary, Summary, VerificationSummary,
 };
 pub use table::{dot, norm, EnergyEllipsoid, TableStats, TrajectoryTable};
 
