@@ -133,10 +133,7 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
         sol.problem.omega_b.norm(),
         sol.tolerance,
     );
-    let status = match verification.verdict() {
-        Verdict::Verified => CaseStatus::Converged,
-        Verdict::Unverified { reason } => CaseStatus::Unverified(reason),
-    };
+    let status = CaseStatus::from(verification.verdict());
     let mut c = CaseSummary {
         name: name.to_string(),
         eta: sol.problem.weights.eta,
@@ -424,6 +421,7 @@ pub fn run_certify(
         let mut report = match solved {
             Err(e) => CertificateReport::error(&job.name, format!("the solve failed: {e}")),
             Ok(sol) => {
+                let verification = crate::suslov::verify::verify_solution(&sol);
                 let clock = Instant::now();
                 let cert = crate::suslov::certify::certify(
                     &sol,
@@ -435,6 +433,7 @@ pub fn run_certify(
                     Err(e) => CertificateReport::error(&job.name, format!("certificate: {e}")),
                 };
                 r.certify_seconds = clock.elapsed().as_secs_f64();
+                r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
                 r
             }
         };
@@ -493,6 +492,15 @@ pub fn run_rank_along(
                 continue;
             }
         };
+        if let Verdict::Unverified { reason } =
+            crate::suslov::verify::verify_solution(&sol).verdict()
+        {
+            text += &format!(
+                "case {}: the solution did not pass its a-posteriori checks ({reason}); the \
+                 rank test below runs along it anyway\n",
+                job.name
+            );
+        }
         let (a, b) = (sol.problem.t0, sol.terminal_time());
         let times: Vec<f64> = (0..points)
             .map(|k| a + (b - a) * k as f64 / (points - 1) as f64)

@@ -133,6 +133,17 @@ impl std::fmt::Display for CaseStatus {
     }
 }
 
+impl From<crate::suslov::verify::Verdict> for CaseStatus {
+    /// The status of a solution the solver returned: converged if verified, unverified
+    /// (with the failed checks) if not.
+    fn from(v: crate::suslov::verify::Verdict) -> Self {
+        match v {
+            crate::suslov::verify::Verdict::Verified => Self::Converged,
+            crate::suslov::verify::Verdict::Unverified { reason } => Self::Unverified(reason),
+        }
+    }
+}
+
 /// The a-posteriori checks of a case (`crate::suslov::verify::Verification` as data).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct VerificationSummary {
