@@ -23,20 +23,23 @@
 //! the previous run's files are removed first, `INCOMPLETE` marks it until `summary.json`,
 //! the last file, is complete. A case that fails writes what it has, marked: its summary
 //! status says `partial: <stage, parameter value, reason>` and its trajectory goes to
-//! `trajectory.partial.csv` (and `.npy`).
+//! `trajectory.partial.csv` (and `.npy`); a solution that fails its a-posteriori checks
+//! ([`crate::suslov::verify`]) has status `unverified: <checks>` and goes to
+//! `trajectory.unverified.csv` (and `.npy`). Figures are drawn for verified solutions only.
 
 use std::path::Path;
 use std::time::Instant;
 
 use crate::config::{self, ConfigError};
 use crate::report::{
-    self, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir, ReportError,
-    StabilityRun, StageSummary, Summary, TrajectoryTable,
+    self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir,
+    ReportError, StabilityRun, StageSummary, Summary, TrajectoryTable,
 };
 use crate::suslov::diagnostics::{diagnose, reintegrate_check};
 use crate::suslov::paper::{self, PaperCase};
 use crate::suslov::problem::SuslovProblem;
 use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
+use crate::suslov::verify::{Verdict, Verification};
 
 /// Points of the output grid (trajectory.csv and figures).
 pub const OUTPUT_POINTS: usize = 2001;
@@ -114,13 +117,27 @@ fn stage_summaries(sol: &SuslovSolution) -> Vec<StageSummary> {
             steps: s.steps,
             newton_iterations: s.newton_iterations,
             failures_recovered: s.failures_recovered,
+            outcome: s.outcome.to_string(),
         })
         .collect()
 }
 
-/// Diagnose `sol` and fill a case summary (status "converged").
+/// Diagnose and verify `sol` and fill a case summary: status "converged" only if every
+/// check of [`crate::suslov::verify`] passes at the solution's requested tolerance,
+/// "unverified: …" otherwise (the caller overrides it for a partial result).
 pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSummary {
     let d = diagnose(sol);
+    let reintegration = reintegrate_check(sol);
+    let verification = Verification::new(
+        &d,
+        reintegration
+            .as_ref()
+            .map(|r| r.max_abs_diff)
+            .map_err(|e| e.to_string()),
+        sol.problem.omega_b.norm(),
+        sol.tolerance,
+    );
+    let status = CaseStatus::from(verification.verdict());
     let mut c = CaseSummary {
         name: name.to_string(),
         eta: sol.problem.weights.eta,
@@ -136,7 +153,8 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
         continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
         newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
         wall_seconds,
-        status: "converged".to_string(),
+        status: status.to_string(),
+        verification: Some((&verification).into()),
         stages: stage_summaries(sol),
         ..Default::default()
     };
@@ -158,7 +176,7 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
             "desired_energy_deviation": finite(sol.start.desired_energy_deviation),
         }),
     );
-    match reintegrate_check(sol) {
+    match reintegration {
         Ok(r) => {
             c.reintegration_max_diff = Some(r.max_abs_diff);
             c.stability = r
@@ -187,19 +205,30 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// Which outputs a case gets: only a verified solution looks final.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Outputs {
+    /// Converged and verified: `trajectory.csv`/`.npy` and the figures.
+    Final,
+    /// Solved but failed its a-posteriori checks: `trajectory.unverified.csv`/`.npy` only.
+    Unverified,
+    /// A homotopy stage stopped: the last converged point as `trajectory.partial.csv`/`.npy`.
+    Partial,
+}
+
 fn write_case_outputs(
     out: &mut OutputDir,
     sub: &Path,
     sol: &SuslovSolution,
     title: &str,
-    partial: bool,
+    kind: Outputs,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<(), AppError> {
     let table = trajectory_table(sol, OUTPUT_POINTS);
-    let stem = if partial {
-        "trajectory.partial"
-    } else {
-        "trajectory"
+    let stem = match kind {
+        Outputs::Final => "trajectory",
+        Outputs::Unverified => "trajectory.unverified",
+        Outputs::Partial => "trajectory.partial",
     };
     let csv = out.write(
         sub.join(format!("{stem}.csv")),
@@ -211,7 +240,7 @@ fn write_case_outputs(
         &report::trajectory_npy_bytes(&table)?,
     )?;
     events(AppEvent::Wrote(&npy));
-    if partial {
+    if kind != Outputs::Final {
         return Ok(());
     }
     let inertia = sol.problem.inertia.diag();
@@ -263,7 +292,12 @@ pub fn run_case(
         Ok(sol) => {
             let mut s = summarize(name, &sol, 0.0);
             s.wall_seconds = clock.elapsed().as_secs_f64();
-            write_case_outputs(out, sub, &sol, name, false, events)?;
+            let kind = if s.status == CaseStatus::Converged.to_string() {
+                Outputs::Final
+            } else {
+                Outputs::Unverified
+            };
+            write_case_outputs(out, sub, &sol, name, kind, events)?;
             s
         }
         Err(SolveError::StageFailed {
@@ -275,11 +309,15 @@ pub fn run_case(
             partial,
         }) => {
             let mut s = summarize(name, &partial, clock.elapsed().as_secs_f64());
-            s.status = format!(
-                "partial: stage '{stage}' stopped at {parameter} = {reached} (target {target}): \
-                 {reason}"
-            );
-            write_case_outputs(out, sub, &partial, name, true, events)?;
+            // A single-solve stage (start, polish) has no continuation parameter.
+            let at = if reached.is_finite() && target.is_finite() {
+                format!(" at {parameter} = {reached} (target {target})")
+            } else {
+                String::new()
+            };
+            s.status =
+                CaseStatus::Partial(format!("stage '{stage}' stopped{at}: {reason}")).to_string();
+            write_case_outputs(out, sub, &partial, name, Outputs::Partial, events)?;
             s
         }
         Err(e) => CaseSummary {
@@ -294,7 +332,7 @@ pub fn run_case(
             omega_b_error: f64::NAN,
             max_residual: f64::NAN,
             wall_seconds: clock.elapsed().as_secs_f64(),
-            status: format!("failed: {e}"),
+            status: CaseStatus::Failed(e.to_string()).to_string(),
             ..Default::default()
         },
     };
@@ -451,6 +489,7 @@ pub fn run_certify(
         let mut report = match solved {
             Err(e) => CertificateReport::error(&job.name, format!("the solve failed: {e}")),
             Ok(sol) => {
+                let verification = crate::suslov::verify::verify_solution(&sol);
                 let clock = Instant::now();
                 let cert = crate::suslov::certify::certify(
                     &sol,
@@ -462,6 +501,7 @@ pub fn run_certify(
                     Err(e) => CertificateReport::error(&job.name, format!("certificate: {e}")),
                 };
                 r.certify_seconds = clock.elapsed().as_secs_f64();
+                r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
                 r
             }
         };
@@ -519,6 +559,16 @@ pub fn run_rank_along(
                 continue;
             }
         };
+        if let Verdict::Unverified { reason } =
+            crate::suslov::verify::verify_solution(&sol).verdict()
+        {
+            all_accessible = false;
+            text += &format!(
+                "case {}: the solution did not pass its a-posteriori checks ({reason}); the \
+                 rank test below runs along it anyway\n",
+                job.name
+            );
+        }
         let (a, b) = (sol.problem.t0, sol.terminal_time());
         let times: Vec<f64> = (0..points)
             .map(|k| a + (b - a) * k as f64 / (points - 1) as f64)
@@ -587,7 +637,7 @@ pub fn run_rank_along(
 pub struct RankAlong {
     /// The report for people.
     pub text: String,
-    /// Every case solved and had rank 4 at every time tested.
+    /// Every case solved, passed its a-posteriori checks and had rank 4 at every time tested.
     pub all_accessible: bool,
 }
 

@@ -29,6 +29,8 @@
 //! assert!((solution.terminal_time() - 9.84).abs() < 0.01);
 //! let checks = diagnose(&solution);
 //! assert!(checks.max_abs_constraint < 1e-9); // ⟨Ω, ξ⟩ = 0 on a fine grid
+//! // "Converged" means every a-posteriori check passed at the requested tolerance:
+//! assert!(suslov::suslov::verify::verify_solution(&solution).passed());
 //! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5
 //! assert_eq!(y.len(), 12);
 //! # Ok::<(), suslov::suslov::solve::SolveError>(())

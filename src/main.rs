@@ -268,8 +268,13 @@ impl Reporter {
                 }
             }
             AppEvent::Solve(Event::StageFinished(r)) => {
+                let what = if r.outcome.is_completed() {
+                    "done".to_string()
+                } else {
+                    r.outcome.to_string()
+                };
                 let text = format!(
-                    "stage {} done: {} steps, {} recovered failures, {} Newton iterations, {} nodes, {:.3} s",
+                    "stage {} {what}: {} steps, {} recovered failures, {} Newton iterations, {} nodes, {:.3} s",
                     r.name, r.steps, r.failures_recovered, r.newton_iterations, r.nodes, r.seconds
                 );
                 if let Some(bar) = &self.bar {
@@ -383,10 +388,16 @@ fn main() -> ExitCode {
                     for r in &reports {
                         out(&r.text());
                     }
-                    if reports.iter().all(|r| r.verdict == "certified") {
+                    let certified = |r: &suslov::report::CertificateReport| {
+                        r.verdict == "certified"
+                            && r.solution_status.as_deref() == Some("converged")
+                    };
+                    if reports.iter().all(certified) {
                         Outcome::Success
                     } else {
-                        say!("not every case is certified as a local minimum");
+                        say!(
+                            "not every case is certified as a local minimum of a verified solution"
+                        );
                         Outcome::Negative
                     }
                 }

@@ -204,6 +204,7 @@ fn sample_summary() -> Summary {
                 newton_iterations: 170,
                 wall_seconds: 3.25,
                 status: "converged".into(),
+                verification: None,
                 reintegration_max_diff: Some(2.0e-9),
                 stability: vec![StabilityRun {
                     label: "relative 1e-3".into(),
@@ -220,6 +221,7 @@ fn sample_summary() -> Summary {
                     steps: 12,
                     newton_iterations: 40,
                     failures_recovered: 1,
+                    outcome: "completed".into(),
                 }],
                 extra,
             },

@@ -86,6 +86,12 @@ pub struct CertificateReport {
     /// Set when the certified point is visibly different from the computed solution.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub warning: Option<String>,
+    /// The a-posteriori verification of the solution that was certified, as a case status:
+    /// `"converged"` or `"unverified: …"` (absent when there was no solution). The certificate
+    /// is about the discretized problem on the solution's mesh; an unverified solution is not
+    /// an accurate extremal of the continuous problem.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub solution_status: Option<String>,
     /// Wall time of the solve, seconds.
     pub solve_seconds: f64,
     /// Wall time of the certificate, seconds.
@@ -154,8 +160,22 @@ impl CertificateReport {
 
     /// A few lines for people.
     pub fn text(&self) -> String {
+        let unverified = self
+            .solution_status
+            .as_ref()
+            .filter(|s| s.as_str() != "converged")
+            .map(|s| {
+                format!(
+                    "  warning: the solution did not pass its a-posteriori checks ({s}); the \
+                     certificate is about its discretization only\n"
+                )
+            })
+            .unwrap_or_default();
         if self.verdict == "error" {
-            return format!("case {}: no verdict: {}\n", self.name, self.message);
+            return format!(
+                "case {}: no verdict: {}\n{unverified}",
+                self.name, self.message
+            );
         }
         let margin = match (self.margin_low, self.margin_high) {
             (Some(lo), Some(hi)) => format!("in [{lo:.4e}, {hi:.4e}]"),
@@ -222,5 +242,6 @@ impl CertificateReport {
             .as_ref()
             .map(|w| format!("  warning: {w}\n"))
             .unwrap_or_default()
+            + &unverified
     }
 }

@@ -58,8 +58,8 @@ pub use figures::{
 };
 pub use outdir::{OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE};
 pub use summary::{
-    finite_or_null, opt_finite_or_null, write_summary_json, CaseSummary, StabilityRun,
-    StageSummary, Summary,
+    finite_or_null, opt_finite_or_null, write_summary_json, CaseStatus, CaseSummary, CheckSummary,
+    StabilityRun, StageSummary, Summary, VerificationSummary,
 };
 pub use table::{dot, norm, EnergyEllipsoid, TableStats, TrajectoryTable};
 

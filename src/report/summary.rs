@@ -56,8 +56,13 @@ pub struct CaseSummary {
     /// Wall-clock time of the case, seconds.
     #[serde(with = "finite_or_null")]
     pub wall_seconds: f64,
-    /// `"converged"`, or `"partial: <reason>"` when the case stopped early.
+    /// The [`CaseStatus`] as text: `"converged"` (the solve succeeded and every check of
+    /// `verification` passed), `"unverified: <check> = <value> exceeds <threshold> (…)"`,
+    /// `"partial: <reason>"` when the case stopped early, or `"failed: <reason>"`.
     pub status: String,
+    /// The a-posteriori checks the status rests on (absent when there was no solution).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub verification: Option<VerificationSummary>,
     /// A-posteriori check: largest difference between the solution and the states obtained by
     /// re-integrating the equations of motion as an initial value problem with the computed
     /// control (absent if not done).
@@ -98,6 +103,103 @@ pub struct StageSummary {
     pub newton_iterations: usize,
     /// Failed steps that were recovered (e.g. by halving the step or refining the mesh).
     pub failures_recovered: usize,
+    /// `"completed"`, or `"stopped: <reason>"` for the stage where a partial case stopped.
+    #[serde(default)]
+    pub outcome: String,
+}
+
+/// What a case's `status` says, before it becomes text.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum CaseStatus {
+    /// The solve succeeded and every a-posteriori check passed.
+    Converged,
+    /// The solve succeeded but some check failed (the reason names it).
+    Unverified(String),
+    /// A homotopy stage stopped; the case holds the last converged point.
+    Partial(String),
+    /// No solution at all.
+    Failed(String),
+}
+
+impl std::fmt::Display for CaseStatus {
+    /// `converged`, `unverified: …`, `partial: …` or `failed: …`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Converged => f.write_str("converged"),
+            Self::Unverified(r) => write!(f, "unverified: {r}"),
+            Self::Partial(r) => write!(f, "partial: {r}"),
+            Self::Failed(r) => write!(f, "failed: {r}"),
+        }
+    }
+}
+
+impl From<crate::suslov::verify::Verdict> for CaseStatus {
+    /// The status of a solution the solver returned: converged if verified, unverified
+    /// (with the failed checks) if not.
+    fn from(v: crate::suslov::verify::Verdict) -> Self {
+        match v {
+            crate::suslov::verify::Verdict::Verified => Self::Converged,
+            crate::suslov::verify::Verdict::Unverified { reason } => Self::Unverified(reason),
+        }
+    }
+}
+
+/// The a-posteriori checks of a case (`crate::suslov::verify::Verification` as data).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct VerificationSummary {
+    /// The requested tolerance.
+    #[serde(with = "finite_or_null")]
+    pub tolerance: f64,
+    /// The tolerance the thresholds are computed at (the requested one clamped to the
+    /// measured range).
+    #[serde(with = "finite_or_null")]
+    pub effective_tolerance: f64,
+    /// Whether every check passed.
+    pub passed: bool,
+    /// The checks.
+    pub checks: Vec<CheckSummary>,
+}
+
+/// One a-posteriori check: `passed` ⇔ `value <= threshold`.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct CheckSummary {
+    /// Name, e.g. `"constraint"`.
+    pub name: String,
+    /// What is measured (with its scale).
+    pub quantity: String,
+    /// The measured value (`null` if it could not be measured).
+    #[serde(with = "finite_or_null")]
+    pub value: f64,
+    /// The threshold.
+    #[serde(with = "finite_or_null")]
+    pub threshold: f64,
+    /// Whether the check passed.
+    pub passed: bool,
+    /// Why the value could not be measured.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
+}
+
+impl From<&crate::suslov::verify::Verification> for VerificationSummary {
+    fn from(v: &crate::suslov::verify::Verification) -> Self {
+        Self {
+            tolerance: v.tolerance,
+            effective_tolerance: v.effective_tolerance,
+            passed: v.passed(),
+            checks: v
+                .checks
+                .iter()
+                .map(|c| CheckSummary {
+                    name: c.name.to_string(),
+                    quantity: c.quantity.to_string(),
+                    value: c.value,
+                    threshold: c.threshold,
+                    passed: c.passed,
+                    error: c.error.clone(),
+                })
+                .collect(),
+        }
+    }
 }
 
 /// One run of the stability experiment: the control `ξ̇` is perturbed and the pure equations

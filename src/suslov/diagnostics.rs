@@ -50,6 +50,10 @@ pub struct Diagnostics {
     pub xi_norm_min: f64,
     /// `max |ξ|`.
     pub xi_norm_max: f64,
+    /// `max |Ω|` on the fine grid.
+    pub omega_norm_max: f64,
+    /// `T(a) = ½⟨IΩ_a, Ω_a⟩`, the kinetic energy the dynamics conserve.
+    pub kinetic_energy: f64,
     /// `max |T(t) − T(a)|`, `T = ½⟨IΩ, Ω⟩`.
     pub energy_drift: f64,
     /// `|Ω(b) − Ω_b|`.
@@ -58,6 +62,14 @@ pub struct Diagnostics {
     pub max_residual: f64,
     /// The same, each component divided by `1 + |T f|`.
     pub max_relative_residual: f64,
+    /// The interpolant's estimated local error in the units of the solver's tolerance
+    /// weights: `max h_i |y_j'(s) − T f_j(y(s))| / (1 + |y_j(s)|)` over the fine grid, `h_i`
+    /// the width (in `s`) of the mesh interval containing `s`. This is the quantity the
+    /// BVP solver's default error control keeps below `tol` (with `atol = tol`: weights
+    /// `tol (1 + |y_j|)`, see [`crate::bvp::ErrorControl::Error`]), measured here at
+    /// [`FINE_PER_INTERVAL`]` + 1` points per interval (max) instead of the solver's three
+    /// interior Lobatto points (RMS).
+    pub max_local_error: f64,
     /// `max |g(y(a), y(b), T)|` (boundary conditions, incl. free time).
     pub bc_residual: f64,
     /// Fine-grid points used.
@@ -128,17 +140,20 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
         max_abs_constraint: 0.0,
         xi_norm_min: f64::INFINITY,
         xi_norm_max: 0.0,
+        omega_norm_max: 0.0,
+        kinetic_energy: t_a,
         energy_drift: 0.0,
         omega_b_error: 0.0,
         max_residual: 0.0,
         max_relative_residual: 0.0,
+        max_local_error: 0.0,
         bc_residual: 0.0,
         grid_points: grid.len(),
     };
     let mut y = [0.0; 12];
     let mut yp = [0.0; 12];
     let mut f = [0.0; 12];
-    for &s in &grid {
+    let mut sample = |d: &mut Diagnostics, s: f64, h: f64| {
         sol.bvp.eval_into(s, &mut y);
         sol.bvp.eval_derivative_into(s, &mut yp);
         bvp.f(s, &y, &[], &mut f);
@@ -147,13 +162,27 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
         let xn = (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]).sqrt();
         d.xi_norm_min = d.xi_norm_min.min(xn);
         d.xi_norm_max = d.xi_norm_max.max(xn);
+        let on = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+        d.omega_norm_max = d.omega_norm_max.max(on);
         d.energy_drift = d.energy_drift.max((kinetic(&y[..3]) - t_a).abs());
         for i in 0..12 {
             let r = (yp[i] - f[i]).abs();
             d.max_residual = d.max_residual.max(r);
             d.max_relative_residual = d.max_relative_residual.max(r / (1.0 + f[i].abs()));
+            d.max_local_error = d.max_local_error.max(h * r / (1.0 + y[i].abs()));
+        }
+    };
+    // The points of `fine_grid(x, FINE_PER_INTERVAL)`, each with the width of its mesh
+    // interval (at an interior node, where the derivative is that of the right interval's
+    // polynomial, the right interval's).
+    for w in x.windows(2) {
+        let h = w[1] - w[0];
+        for k in 0..FINE_PER_INTERVAL {
+            sample(&mut d, w[0] + h * k as f64 / FINE_PER_INTERVAL as f64, h);
         }
     }
+    let h_last = x[x.len() - 1] - x[x.len() - 2];
+    sample(&mut d, x[x.len() - 1], h_last);
     let yb = sol.bvp.eval(1.0);
     d.omega_b_error = (Vector3::new(yb[0], yb[1], yb[2]) - problem.omega_b).norm();
     let full = SuslovBvp::new(problem);
@@ -163,29 +192,38 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
     d
 }
 
-/// Re-integrate Suslov's pure equations with the computed control and run the paper's
-/// stability experiment (perturbed `ξ̇`: relative modulation `eps sin(3t)` with eps = 1e-3,
-/// and an additive `1e-3` along `(1,1,1)/√3`).
-pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
-    let problem = &sol.problem;
-    let (a, b) = (problem.t0, sol.terminal_time());
-    let control = |t: f64| -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> {
+/// The computed control `t ↦ (ξ(t), ξ̇(t))` of `sol` (clamped to `[a, b]`).
+fn control_of(
+    sol: &SuslovSolution,
+) -> impl Fn(f64) -> Result<(Vector3<f64>, Vector3<f64>), SuslovError> + '_ {
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    move |t: f64| {
         let y = sol.state(t.clamp(a, b));
         Ok((
             Vector3::new(y[3], y[4], y[5]),
             Vector3::new(y[6], y[7], y[8]),
         ))
-    };
-    let grid = fine_grid(&sol.bvp.x, 2);
-    let times: Vec<f64> = grid.iter().map(|s| a + s * sol.t_span).collect();
-    let options = IvpOptions::default();
+    }
+}
+
+/// Re-integrate Suslov's pure equations with the computed control and compare with the BVP's
+/// `Ω` at the points of `fine_grid(mesh, 2)` ([`Reintegration::stability`] left empty; see
+/// [`reintegrate_check`] for the full check).
+pub fn reintegrate_difference(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let control = control_of(sol);
+    let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
+        .iter()
+        .map(|s| a + s * sol.t_span)
+        .collect();
     let run = reintegrate(
         &problem.inertia,
         &problem.omega_a,
         (a, b),
         &control,
         &times,
-        &options,
+        &IvpOptions::default(),
     )?;
     let reference: Vec<Vector3<f64>> = times
         .iter()
@@ -195,7 +233,27 @@ pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovEr
         })
         .collect();
     let cmp = compare(&run, &reference, &problem.ellipsoid())?;
-    let mut stability = Vec::new();
+    Ok(Reintegration {
+        max_abs_diff: cmp.max_abs_diff,
+        t_max_abs_diff: cmp.t_max_abs_diff,
+        max_rel_energy_drift: cmp.max_rel_energy_drift,
+        stability: Vec::new(),
+    })
+}
+
+/// Re-integrate Suslov's pure equations with the computed control ([`reintegrate_difference`])
+/// and run the paper's stability experiment (perturbed `ξ̇`: relative modulation
+/// `eps sin(3t)` with eps = 1e-3, and an additive `1e-3` along `(1,1,1)/√3`).
+pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovError> {
+    let mut out = reintegrate_difference(sol)?;
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let control = control_of(sol);
+    let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
+        .iter()
+        .map(|s| a + s * sol.t_span)
+        .collect();
+    let options = IvpOptions::default();
     for (label, perturbation) in [
         (
             "xi_dot * (1 + 1e-3 sin 3t)",
@@ -218,12 +276,7 @@ pub fn reintegrate_check(sol: &SuslovSolution) -> Result<Reintegration, SuslovEr
             &times,
             &options,
         )?;
-        stability.push((label.to_string(), rep));
+        out.stability.push((label.to_string(), rep));
     }
-    Ok(Reintegration {
-        max_abs_diff: cmp.max_abs_diff,
-        t_max_abs_diff: cmp.t_max_abs_diff,
-        max_rel_energy_drift: cmp.max_rel_energy_drift,
-        stability,
-    })
+    Ok(out)
 }

@@ -48,6 +48,7 @@ pub mod properties;
 pub mod reintegrate;
 pub mod singular;
 pub mod solve;
+pub mod verify;
 
 pub use desired::{
     Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedPath, ProjectedSegment,

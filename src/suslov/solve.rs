@@ -99,6 +99,36 @@ pub struct StartChoice {
     pub desired_energy_deviation: f64,
 }
 
+/// How a stage of the homotopy ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StageOutcome {
+    /// The stage reached its target (for a single solve: the BVP solver converged).
+    Completed,
+    /// The stage stopped before its target; [`solve`] returns [`SolveError::StageFailed`]
+    /// (or [`SolveError::Start`] for the start) with the same reason.
+    Stopped {
+        /// Why (the continuation's or the BVP solver's status).
+        reason: String,
+    },
+}
+
+impl StageOutcome {
+    /// Whether the stage reached its target.
+    pub fn is_completed(&self) -> bool {
+        matches!(self, Self::Completed)
+    }
+}
+
+impl std::fmt::Display for StageOutcome {
+    /// `completed`, or `stopped: <reason>`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Completed => f.write_str("completed"),
+            Self::Stopped { reason } => write!(f, "stopped: {reason}"),
+        }
+    }
+}
+
 /// One stage of the homotopy.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StageReport {
@@ -118,6 +148,8 @@ pub struct StageReport {
     pub nodes: usize,
     /// Wall time of the stage, seconds.
     pub seconds: f64,
+    /// Whether the stage reached its target.
+    pub outcome: StageOutcome,
 }
 
 /// A solved Suslov problem.
@@ -133,6 +165,10 @@ pub struct SuslovSolution {
     pub start: StartChoice,
     /// The homotopy stages, in order.
     pub stages: Vec<StageReport>,
+    /// The requested final tolerance ([`SolveOptions::tol`]), which the a-posteriori
+    /// verification ([`super::verify`]) judges the solution against (a partial result
+    /// carries it too, though it was not reached).
+    pub tolerance: f64,
 }
 
 impl SuslovSolution {
@@ -169,7 +205,7 @@ pub enum Event<'a> {
         /// The attempt.
         record: &'a StepRecord,
     },
-    /// A stage finished.
+    /// A stage ended: completed, or stopped (see [`StageReport::outcome`]).
     StageFinished(&'a StageReport),
     /// A Newton step or mesh pass inside a BVP solve of a stage (at parameter `lambda` of
     /// the stage's homotopy, 0 for single solves).
@@ -222,6 +258,8 @@ struct Homotopy<'p> {
     solution: Solution,
     start: StartChoice,
     stages: Vec<StageReport>,
+    /// [`SolveOptions::tol`].
+    tolerance: f64,
     /// The path the cost tracks: `Ω_p` during the γ stage of the paper's first case
     /// (γ_c: 1 → 0 tracks `Ω_p`, paper section 5.2), `Ω_d` otherwise.
     tracking: Arc<dyn DesiredPath + Send + Sync>,
@@ -258,6 +296,7 @@ impl Homotopy<'_> {
             t_span: self.t_span,
             start: self.start.clone(),
             stages: self.stages.clone(),
+            tolerance: self.tolerance,
         }
     }
 
@@ -318,16 +357,23 @@ impl Homotopy<'_> {
             newton_iterations: outcome.newton_iterations(),
             nodes: self.solution.num_nodes(),
             seconds: clock.elapsed().as_secs_f64(),
+            outcome: if outcome.status.is_success() {
+                StageOutcome::Completed
+            } else {
+                StageOutcome::Stopped {
+                    reason: outcome.status.to_string(),
+                }
+            },
         };
         events(&Event::StageFinished(&report));
         self.stages.push(report);
-        if !outcome.status.is_success() {
+        if let StageOutcome::Stopped { reason } = &self.stages[self.stages.len() - 1].outcome {
             return Err(SolveError::StageFailed {
                 stage: name,
                 parameter: crate::model::generated::PARAM_NAMES[index],
                 reached: value(outcome.lambda),
                 target: to,
-                reason: outcome.status.to_string(),
+                reason: reason.clone(),
                 partial: Box::new(self.snapshot()),
             });
         }
@@ -365,11 +411,18 @@ impl Homotopy<'_> {
             newton_iterations: sol.stats.newton_iterations,
             nodes: sol.num_nodes(),
             seconds: clock.elapsed().as_secs_f64(),
+            outcome: if sol.is_success() {
+                StageOutcome::Completed
+            } else {
+                StageOutcome::Stopped {
+                    reason: format!("{:?}: {}", sol.status, sol.status.message()),
+                }
+            },
         };
         events(&Event::StageFinished(&report));
         self.stages.push(report);
-        if !sol.is_success() {
-            let reason = format!("{:?}: {}", sol.status, sol.status.message());
+        if let StageOutcome::Stopped { reason } = &self.stages[self.stages.len() - 1].outcome {
+            let reason = reason.clone();
             return Err(SolveError::StageFailed {
                 stage: name,
                 parameter: "-",
@@ -582,24 +635,30 @@ pub fn solve(
             })
         },
     )?;
-    if !first.is_success() {
-        return Err(SolveError::Start(format!(
-            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
-             ({:?}: {}); try a smaller or larger beta_m, or more initial intervals",
-            first.status,
-            first.status.message()
-        )));
-    }
-    let report = StageReport {
+    let mut report = StageReport {
         name: "start",
         from: beta_m,
         to: beta_m,
-        steps: 1,
+        steps: usize::from(first.is_success()),
         failures_recovered: 0,
         newton_iterations: first.stats.newton_iterations,
         nodes: first.num_nodes(),
         seconds: clock.elapsed().as_secs_f64(),
+        outcome: StageOutcome::Completed,
     };
+    if !first.is_success() {
+        let reason = format!(
+            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
+             ({:?}: {}); try a smaller or larger beta_m, or more initial intervals",
+            first.status,
+            first.status.message()
+        );
+        report.outcome = StageOutcome::Stopped {
+            reason: reason.clone(),
+        };
+        events(&Event::StageFinished(&report));
+        return Err(SolveError::Start(reason));
+    }
     events(&Event::StageFinished(&report));
     let mut h = Homotopy {
         problem,
@@ -609,6 +668,7 @@ pub fn solve(
         solution: first,
         start,
         stages: vec![report],
+        tolerance: options.tol,
         tracking,
     };
 
