@@ -110,7 +110,7 @@ pub struct ProblemFile {
 #[serde(deny_unknown_fields)]
 pub struct BodySection {
     /// Principal moments of inertia.
-    pub inertia: Option<[f64; 3]>,
+    pub inertia: Option<Numbers<3>>,
 }
 
 /// `[boundary]`.
@@ -120,7 +120,7 @@ pub struct BoundarySection {
     /// Initial time (default 0).
     pub t0: Option<f64>,
     /// `Ω(t0)`.
-    pub omega_a: Option<[f64; 3]>,
+    pub omega_a: Option<Numbers<3>>,
     /// `Ω(b)`.
     pub omega_b: Option<OmegaBSpec>,
     /// Fixed or free terminal time.
@@ -132,8 +132,8 @@ pub struct BoundarySection {
 pub enum OmegaBSpec {
     /// The desired path's end point.
     DesiredEnd,
-    /// An explicit vector.
-    Vector([f64; 3]),
+    /// An explicit vector (as written: its length is checked in [`ProblemFile::build`]).
+    Vector(Numbers<3>),
 }
 
 impl<'de> Deserialize<'de> for OmegaBSpec {
@@ -152,13 +152,84 @@ impl<'de> Deserialize<'de> for OmegaBSpec {
                 }
             }
             fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<OmegaBSpec, A::Error> {
-                <[f64; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))
-                    .map(OmegaBSpec::Vector)
+                read_numbers(seq).map(OmegaBSpec::Vector)
             }
         }
         d.deserialize_any(V)
     }
 }
+
+/// A TOML array meant to hold exactly `N` numbers, as written in the file. Reading it never
+/// fails on the length (only on an entry's type): a wrong length is kept as
+/// [`Numbers::WrongLength`] and turned into [`ConfigError::Length`], which names the key, by
+/// [`ProblemFile::build`]. Every vector key (and the vector form of `boundary.omega_b`) is
+/// read this way, so no array is ever truncated, padded or partly ignored.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Numbers<const N: usize> {
+    /// Exactly `N` numbers.
+    Exact([f64; N]),
+    /// Any other number of entries (of any type beyond the first `N`): how many.
+    WrongLength(usize),
+}
+
+impl<'de, const N: usize> Deserialize<'de> for Numbers<N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<const N: usize>;
+        impl<'de, const N: usize> Visitor<'de> for V<N> {
+            type Value = Numbers<N>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of {N} numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Numbers<N>, A::Error> {
+                read_numbers(seq)
+            }
+        }
+        d.deserialize_seq(V::<N>)
+    }
+}
+
+/// Reads up to `N` numbers, then counts (without converting) whatever else the array holds.
+fn read_numbers<'de, A: SeqAccess<'de>, const N: usize>(
+    mut seq: A,
+) -> Result<Numbers<N>, A::Error> {
+    let mut out = [0.0; N];
+    for (n, slot) in out.iter_mut().enumerate() {
+        match seq.next_element::<f64>()? {
+            Some(x) => *slot = x,
+            None => return Ok(Numbers::WrongLength(n)),
+        }
+    }
+    let mut extra = 0usize;
+    while seq.next_element::<de::IgnoredAny>()?.is_some() {
+        extra += 1;
+    }
+    Ok(if extra == 0 {
+        Numbers::Exact(out)
+    } else {
+        Numbers::WrongLength(N + extra)
+    })
+}
+
+/// The numbers of a vector key, or [`ConfigError::Length`] naming it; `meaning` names the
+/// entries (e.g. `"I1, I2, I3"`).
+fn exact<const N: usize>(
+    field: &str,
+    v: Numbers<N>,
+    meaning: &'static str,
+) -> Result<[f64; N], ConfigError> {
+    match v {
+        Numbers::Exact(x) => Ok(x),
+        Numbers::WrongLength(found) => Err(ConfigError::Length {
+            field: field.to_string(),
+            found,
+            expected: N,
+            meaning,
+        }),
+    }
+}
+
+/// What the entries of a 3-vector key are.
+const XYZ: &str = "x, y, z";
 
 /// `boundary.terminal_time`: `{ fixed = b }` or `{ free = true, guess = b }`.
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -201,13 +272,13 @@ pub struct DesiredSection {
     /// paper-spiral: switching time (default 10).
     pub b_d: Option<f64>,
     /// constant: the value.
-    pub value: Option<[f64; 3]>,
+    pub value: Option<Numbers<3>>,
     /// segment: start point (default `boundary.omega_a`).
-    pub from: Option<[f64; 3]>,
+    pub from: Option<Numbers<3>>,
     /// segment: end point (default `boundary.omega_b`).
-    pub to: Option<[f64; 3]>,
+    pub to: Option<Numbers<3>>,
     /// segment: `[start time, end time]` (default `[t0, terminal time]`).
-    pub interval: Option<[f64; 2]>,
+    pub interval: Option<Numbers<2>>,
     /// samples: the CSV file (relative to the problem file).
     pub file: Option<String>,
 }
@@ -268,6 +339,22 @@ pub enum ConfigError {
         field: Option<String>,
         /// The parser's message.
         message: String,
+    },
+    /// An array key with the wrong number of entries.
+    #[error(
+        "`{field}` has {found} entr{}, expected {expected} ({meaning}): write {} = [{meaning}]",
+        if *found == 1 { "y" } else { "ies" },
+        field.rsplit('.').next().unwrap_or(field)
+    )]
+    Length {
+        /// The key.
+        field: String,
+        /// How many entries the file gives.
+        found: usize,
+        /// How many the key takes.
+        expected: usize,
+        /// What the entries are, e.g. `"I1, I2, I3"`.
+        meaning: &'static str,
     },
     /// A required key is missing.
     #[error("`{field}` is missing: {fix}")]
@@ -384,6 +471,7 @@ impl ConfigError {
             ConfigError::InFile { source, .. } => source.field(),
             ConfigError::Toml { field, .. } => field.as_deref(),
             ConfigError::Missing { field, .. }
+            | ConfigError::Length { field, .. }
             | ConfigError::NotFinite { field, .. }
             | ConfigError::OutOfRange { field, .. }
             | ConfigError::Singular { field, .. }
@@ -532,7 +620,9 @@ fn finite(field: &str, value: f64) -> Result<f64, ConfigError> {
     }
 }
 
-fn finite3(field: &str, v: [f64; 3]) -> Result<Vector3<f64>, ConfigError> {
+/// A 3-vector key: exactly 3 entries, all finite.
+fn vector3(field: &str, v: Numbers<3>) -> Result<Vector3<f64>, ConfigError> {
+    let v = exact(field, v, XYZ)?;
     for (i, x) in v.iter().enumerate() {
         finite(&format!("{field}[{i}]"), *x)?;
     }
@@ -690,12 +780,16 @@ impl ProblemFile {
                 "add a [body] table with inertia = [I1, I2, I3] (principal moments, > 0)",
             )
         })?;
-        let inertia = body.inertia.ok_or_else(|| {
-            missing(
-                "body.inertia",
-                "add inertia = [I1, I2, I3] under [body] (principal moments, > 0)",
-            )
-        })?;
+        let inertia = exact(
+            "body.inertia",
+            body.inertia.ok_or_else(|| {
+                missing(
+                    "body.inertia",
+                    "add inertia = [I1, I2, I3] under [body] (principal moments, > 0)",
+                )
+            })?,
+            "I1, I2, I3",
+        )?;
         for (i, m) in inertia.iter().enumerate() {
             positive(
                 &format!("body.inertia[{i}]"),
@@ -716,7 +810,7 @@ impl ProblemFile {
             )
         })?;
         let t0 = finite("boundary.t0", boundary.t0.unwrap_or(0.0))?;
-        let omega_a = finite3(
+        let omega_a = vector3(
             "boundary.omega_a",
             boundary.omega_a.ok_or_else(|| {
                 missing(
@@ -920,7 +1014,7 @@ impl ProblemFile {
         })?;
         let omega_b = match omega_b_spec {
             OmegaBSpec::DesiredEnd => desired.end_point,
-            OmegaBSpec::Vector(v) => finite3("boundary.omega_b", v)?,
+            OmegaBSpec::Vector(v) => vector3("boundary.omega_b", v)?,
         };
         let field = match omega_b_spec {
             OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
@@ -1020,12 +1114,12 @@ impl ProblemFile {
             "segment" => {
                 reject_unused(d, kind, &["from", "to", "interval"])?;
                 let from = match d.from {
-                    Some(v) => finite3("desired.from", v)?,
+                    Some(v) => vector3("desired.from", v)?,
                     None => omega_a,
                 };
                 let to = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
-                    (Some(v), _) => finite3("desired.to", v)?,
-                    (None, Some(OmegaBSpec::Vector(v))) => finite3("boundary.omega_b", v)?,
+                    (Some(v), _) => vector3("desired.to", v)?,
+                    (None, Some(OmegaBSpec::Vector(v))) => vector3("boundary.omega_b", v)?,
                     (None, _) => {
                         return Err(missing(
                             "desired.to",
@@ -1036,10 +1130,13 @@ impl ProblemFile {
                     }
                 };
                 let (a, b) = match (d.interval, terminal) {
-                    (Some([a, b]), _) => (
-                        finite("desired.interval[0]", a)?,
-                        finite("desired.interval[1]", b)?,
-                    ),
+                    (Some(interval), _) => {
+                        let [a, b] = exact("desired.interval", interval, "t_start, t_end")?;
+                        (
+                            finite("desired.interval[0]", a)?,
+                            finite("desired.interval[1]", b)?,
+                        )
+                    }
                     (None, Terminal::Fixed(b) | Terminal::Free(Some(b))) => (t0, *b),
                     (None, Terminal::Free(None)) => {
                         return Err(missing(
@@ -1084,7 +1181,7 @@ impl ProblemFile {
             }
             "constant" => {
                 reject_unused(d, kind, &["value"])?;
-                let value = finite3(
+                let value = vector3(
                     "desired.value",
                     d.value.ok_or_else(|| {
                         missing("desired.value", "add value = [x, y, z] under [desired]")
