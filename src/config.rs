@@ -82,9 +82,31 @@ use crate::suslov::problem::{
     CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
 };
 use crate::suslov::solve::{SolveOptions, StartStrategy};
+use crate::suslov::SuslovError;
 
 /// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
 pub const DESIRED_START_REL_TOL: f64 = 1e-6;
+
+/// Largest problem file read, in bytes (1 MiB). A problem file is well under 1 kB; the cap
+/// leaves room for any amount of comments while bounding what the `toml` crate holds in
+/// memory and parses (a file is read with at most this many bytes plus one, so a larger or
+/// growing file costs no more).
+pub const MAX_PROBLEM_FILE_BYTES: u64 = 1 << 20;
+
+/// Longest case name, in characters. The name labels `summary.json` and every figure title
+/// (rasterised text: a 100 kB name took 8 s per figure).
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// Largest samples file (`desired.file`), in bytes (64 MiB), read with a bounded reader.
+pub const MAX_SAMPLES_FILE_BYTES: u64 = 64 << 20;
+
+/// Most rows of a samples file. The spline holds ~130 bytes per row and building it ~200
+/// (a million rows: ~200 MB), and a BVP mesh (a few ten thousand nodes at most) cannot
+/// resolve more detail than that many samples carry anyway.
+pub const MAX_SAMPLE_ROWS: usize = 1_000_000;
+
+/// Longest piece of input echoed in a message (characters; longer ones end in `…`).
+pub const MAX_ECHO_CHARS: usize = 200;
 
 /// The parsed file, before any check beyond the TOML types. Every field is optional here so
 /// that a missing one is reported with its full path by [`ProblemFile::build`].
@@ -317,15 +339,40 @@ pub struct LoadedProblem {
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// The file could not be read.
-    #[error("cannot read {}: {source}", path.display())]
+    #[error("cannot read {}: {source}", clip(&path.display().to_string()))]
     Read {
         /// The file.
         path: PathBuf,
         /// Why.
         source: std::io::Error,
     },
+    /// The problem file is no regular file, too large or not UTF-8.
+    #[error("{}: {problem}", clip(&path.display().to_string()))]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: FileProblem,
+    },
+    /// Problem text longer than [`MAX_PROBLEM_FILE_BYTES`] (given as a string).
+    #[error(
+        "the problem text is larger than {} (the cap on a problem file)",
+        mebibytes(*limit)
+    )]
+    TooLarge {
+        /// The cap, in bytes.
+        limit: u64,
+    },
+    /// `desired.file` (the samples of `kind = "samples"`) cannot be used.
+    #[error("`desired.file`: {}: {problem}", clip(&path.display().to_string()))]
+    Samples {
+        /// The samples file as resolved (relative to the problem file).
+        path: PathBuf,
+        /// What is wrong.
+        problem: SamplesProblem,
+    },
     /// An error in a file (wraps the others with the file name).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {source}", clip(&path.display().to_string()))]
     InFile {
         /// The file.
         path: PathBuf,
@@ -467,7 +514,12 @@ impl ConfigError {
     /// The TOML path of the offending field, if the error is about one.
     pub fn field(&self) -> Option<&str> {
         match self {
-            ConfigError::Read { .. } => None,
+            ConfigError::Read { .. } | ConfigError::TooLarge { .. } => None,
+            ConfigError::File { problem, .. } => match problem {
+                FileProblem::NotUtf8 { field, .. } => field.as_deref(),
+                _ => None,
+            },
+            ConfigError::Samples { .. } => Some("desired.file"),
             ConfigError::InFile { source, .. } => source.field(),
             ConfigError::Toml { field, .. } => field.as_deref(),
             ConfigError::Missing { field, .. }
@@ -484,16 +536,179 @@ impl ConfigError {
     }
 }
 
-/// Read and check a problem file; errors carry the file name.
+impl ConfigError {
+    /// The error itself, without the [`ConfigError::InFile`] wrapper that names the file.
+    pub fn inner(&self) -> &ConfigError {
+        match self {
+            ConfigError::InFile { source, .. } => source.inner(),
+            e => e,
+        }
+    }
+}
+
+/// Why a file (the problem file or a samples file) was not read.
+#[derive(Debug, thiserror::Error)]
+pub enum FileProblem {
+    /// A directory.
+    #[error("it is a directory, not a file")]
+    Directory,
+    /// A device, FIFO or socket (e.g. `/dev/zero`, which never ends).
+    #[error("it is not a regular file (a device, FIFO or socket); give a file")]
+    NotRegular,
+    /// Larger than the cap.
+    #[error(
+        "it is larger than {} (the cap on this kind of file)",
+        mebibytes(*limit)
+    )]
+    TooLarge {
+        /// The cap, in bytes.
+        limit: u64,
+    },
+    /// Not UTF-8 text.
+    #[error(
+        "it is not valid UTF-8 at line {line}, column {column}{}: save it as UTF-8 text",
+        field.as_ref().map(|f| format!(" (in `{f}`)")).unwrap_or_default()
+    )]
+    NotUtf8 {
+        /// 1-based line of the first invalid byte.
+        line: usize,
+        /// 1-based column (characters) of the first invalid byte.
+        column: usize,
+        /// The TOML path there (problem files).
+        field: Option<String>,
+    },
+}
+
+fn mebibytes(bytes: u64) -> String {
+    if bytes % (1 << 20) == 0 {
+        format!("{} MiB", bytes >> 20)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+/// A file's bytes, read only if it is a regular file of at most `limit` bytes (and then at
+/// most `limit + 1` bytes are read, whatever the file claims).
+#[derive(Debug)]
+enum ReadFailure {
+    Io(std::io::Error),
+    File(FileProblem),
+}
+
+fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, ReadFailure> {
+    use std::io::Read;
+    // `metadata` follows symlinks and does not open the file (opening a FIFO would block).
+    let meta = std::fs::metadata(path).map_err(ReadFailure::Io)?;
+    if meta.is_dir() {
+        return Err(ReadFailure::File(FileProblem::Directory));
+    }
+    if !meta.is_file() {
+        return Err(ReadFailure::File(FileProblem::NotRegular));
+    }
+    if meta.len() > limit {
+        return Err(ReadFailure::File(FileProblem::TooLarge { limit }));
+    }
+    let file = std::fs::File::open(path).map_err(ReadFailure::Io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(ReadFailure::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ReadFailure::File(FileProblem::TooLarge { limit }));
+    }
+    Ok(bytes)
+}
+
+/// `bytes` as text without a leading byte order mark, or where the first invalid UTF-8
+/// byte is (line, column, and for TOML the key there).
+fn decode(bytes: Vec<u8>, toml: bool) -> Result<String, FileProblem> {
+    match String::from_utf8(bytes) {
+        Ok(mut text) => {
+            if text.starts_with(BOM) {
+                text.drain(..BOM.len_utf8());
+            }
+            Ok(text)
+        }
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let bytes = e.into_bytes();
+            let valid = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+            let line = valid.matches('\n').count() + 1;
+            let column = valid.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            let field = if toml {
+                let lossy = String::from_utf8_lossy(&bytes);
+                field_at(lossy.strip_prefix(BOM).unwrap_or(&lossy), at).map(|f| clip(&f))
+            } else {
+                None
+            };
+            Err(FileProblem::NotUtf8 {
+                line,
+                column,
+                field,
+            })
+        }
+    }
+}
+
+const BOM: char = '\u{feff}';
+
+/// At most [`MAX_ECHO_CHARS`] characters of a piece of input (with `…` if cut).
+fn clip(s: &str) -> String {
+    clip_to(s, MAX_ECHO_CHARS)
+}
+
+fn clip_to(s: &str, max_chars: usize) -> String {
+    match s.char_indices().nth(max_chars) {
+        Some((end, _)) => format!("{}…", &s[..end]),
+        None => s.to_string(),
+    }
+}
+
+/// The `toml` crate's message with every echoed piece of input capped: it shows the source
+/// line, a caret line as long as the offending span, and quotes keys and strings in the
+/// message itself. Each quoted piece (between backticks or double quotes) keeps at most
+/// half of [`MAX_ECHO_CHARS`] characters, so that what follows it (e.g. the list of valid
+/// keys) survives, and each line at most `MAX_ECHO_CHARS + 50`.
+fn clip_toml_message(s: &str) -> String {
+    let clip_pieces = |line: &str| {
+        let mut out = String::new();
+        let mut piece = String::new();
+        for c in line.chars() {
+            if c == '`' || c == '"' {
+                out.push_str(&clip_to(&piece, MAX_ECHO_CHARS / 2));
+                out.push(c);
+                piece.clear();
+            } else {
+                piece.push(c);
+            }
+        }
+        out.push_str(&clip_to(&piece, MAX_ECHO_CHARS / 2));
+        clip_to(&out, MAX_ECHO_CHARS + 50)
+    };
+    s.lines().map(clip_pieces).collect::<Vec<_>>().join("\n")
+}
+
+/// Read and check a problem file; errors carry the file name. The file must be a regular
+/// file of at most [`MAX_PROBLEM_FILE_BYTES`] bytes of UTF-8 (a leading byte order mark is
+/// skipped).
 pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+    let file_error = |problem| ConfigError::File {
         path: path.to_path_buf(),
-        source,
+        problem,
+    };
+    let bytes = read_bounded(path, MAX_PROBLEM_FILE_BYTES).map_err(|e| match e {
+        ReadFailure::Io(source) => ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadFailure::File(problem) => file_error(problem),
     })?;
-    let default_name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "problem".to_string());
+    let text = decode(bytes, true).map_err(file_error)?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let default_name = match stem {
+        Some(stem) => DefaultName::FileStem(stem),
+        None => DefaultName::Fixed("problem".into()),
+    };
     let base = path.parent().unwrap_or(Path::new(""));
     parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
         path: path.to_path_buf(),
@@ -502,17 +717,38 @@ pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
 }
 
 /// Check a problem given as TOML text (case name default `"problem"`; a samples file is
-/// looked up relative to the current directory).
+/// looked up relative to the current directory). The same caps as [`load`] apply.
 pub fn from_toml_str(text: &str) -> Result<LoadedProblem, ConfigError> {
-    parse(text, "problem", Path::new(""))
+    parse(text, &DefaultName::Fixed("problem".into()), Path::new(""))
 }
 
-fn parse(text: &str, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
+/// Where the case name comes from when the file has no `name`.
+enum DefaultName {
+    /// The problem file's name without extension (checked like a given name).
+    FileStem(String),
+    /// A name given by the caller.
+    Fixed(String),
+}
+
+fn parse(
+    text: &str,
+    default_name: &DefaultName,
+    base_dir: &Path,
+) -> Result<LoadedProblem, ConfigError> {
+    if text.len() as u64 > MAX_PROBLEM_FILE_BYTES {
+        return Err(ConfigError::TooLarge {
+            limit: MAX_PROBLEM_FILE_BYTES,
+        });
+    }
+    let text = text.strip_prefix(BOM).unwrap_or(text);
     let file: ProblemFile = toml::from_str(text).map_err(|e| ConfigError::Toml {
-        field: e.span().and_then(|span| field_at(text, span.start)),
-        message: e.to_string().trim_end().to_string(),
+        field: e
+            .span()
+            .and_then(|span| field_at(text, span.start))
+            .map(|f| clip_to(&f, MAX_ECHO_CHARS / 2)),
+        message: clip_toml_message(e.to_string().trim_end()),
     })?;
-    file.build(default_name, base_dir)
+    file.build_named(default_name, base_dir)
 }
 
 /// The TOML path (table header and keys) at byte offset `pos` of `src`, best effort: the
@@ -706,9 +942,120 @@ enum Terminal {
 
 const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"";
 
-/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; blank lines, `#` comments and
-/// a first line that is not numeric (a header) are skipped. Errors name the line.
-pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
+/// What is wrong with the rows of a samples file ([`parse_samples`]); lines are 1-based.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SamplesError {
+    /// A field that is not a number (after the header line).
+    #[error("line {line}: {source} in {text:?}")]
+    NotANumber {
+        /// The line.
+        line: usize,
+        /// The parser's reason.
+        source: std::num::ParseFloatError,
+        /// The line's text (at most [`MAX_ECHO_CHARS`] characters).
+        text: String,
+    },
+    /// Not four fields.
+    #[error(
+        "line {line}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {found}"
+    )]
+    Columns {
+        /// The line.
+        line: usize,
+        /// How many fields it has.
+        found: usize,
+    },
+    /// NaN or infinity.
+    #[error("line {line}: {value} is not a finite number")]
+    NotFinite {
+        /// The line.
+        line: usize,
+        /// The value.
+        value: f64,
+    },
+    /// `Ω_d = 0`, which has no radial projection.
+    #[error("line {line}: Omega_d = 0 cannot be projected onto the energy ellipsoid")]
+    Zero {
+        /// The line.
+        line: usize,
+    },
+    /// `t` not after the previous row's.
+    #[error("line {line}: t = {} does not increase (previous t = {})", Num(*t), Num(*previous))]
+    NotIncreasing {
+        /// The line.
+        line: usize,
+        /// Its `t`.
+        t: f64,
+        /// The previous row's `t`.
+        previous: f64,
+    },
+    /// Fewer than two rows.
+    #[error("needs at least 2 samples, found {found}")]
+    TooFew {
+        /// How many rows there are.
+        found: usize,
+    },
+    /// More rows than [`MAX_SAMPLE_ROWS`].
+    #[error("has more than {limit} rows (the cap on a samples file); use fewer samples")]
+    TooMany {
+        /// The cap.
+        limit: usize,
+    },
+}
+
+/// Why `desired.file` cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum SamplesProblem {
+    /// An I/O error.
+    #[error("cannot read it ({0})")]
+    Read(std::io::Error),
+    /// No regular file, too large, or not UTF-8.
+    #[error("{0}")]
+    File(FileProblem),
+    /// A bad row.
+    #[error("{0}")]
+    Rows(SamplesError),
+    /// The samples do not cover `t0`.
+    #[error(
+        "the samples cover [{}, {}], which must contain boundary.t0 = {} (and reach beyond it)",
+        Num(*first),
+        Num(*last),
+        Num(*t0)
+    )]
+    Coverage {
+        /// First `t`.
+        first: f64,
+        /// Last `t`.
+        last: f64,
+        /// `boundary.t0`.
+        t0: f64,
+    },
+    /// The spline through the samples cannot be built.
+    #[error("{0}")]
+    Spline(SuslovError),
+}
+
+/// A number in a message: plain when short, in exponent notation when huge or tiny (so that
+/// `1e300` is not printed with 300 digits).
+#[derive(Debug, Clone, Copy)]
+struct Num(f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-5..1e16).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; a leading byte order mark,
+/// blank lines, `#` comments and a first line that is not numeric (a header) are skipped.
+/// At most [`MAX_SAMPLE_ROWS`] rows. Errors name the line.
+pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), SamplesError> {
+    let text = text.strip_prefix(BOM).unwrap_or(text);
     let mut times = Vec::new();
     let mut values = Vec::new();
     let mut first_content = true;
@@ -717,44 +1064,51 @@ pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
         if line.is_empty() {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let numbers: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let numbers: Result<Vec<f64>, _> =
+            line.split(',').map(|f| f.trim().parse::<f64>()).collect();
         let header = std::mem::replace(&mut first_content, false);
         let numbers = match numbers {
             Ok(n) => n,
             Err(_) if header => continue,
-            Err(e) => return Err(format!("line {}: {e} in {line:?}", i + 1)),
+            Err(source) => {
+                return Err(SamplesError::NotANumber {
+                    line: i + 1,
+                    source,
+                    text: clip(line),
+                })
+            }
         };
         if numbers.len() != 4 {
-            return Err(format!(
-                "line {}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {}",
-                i + 1,
-                numbers.len()
-            ));
+            return Err(SamplesError::Columns {
+                line: i + 1,
+                found: numbers.len(),
+            });
         }
-        if let Some(x) = numbers.iter().find(|x| !x.is_finite()) {
-            return Err(format!("line {}: {x} is not a finite number", i + 1));
+        if let Some(&value) = numbers.iter().find(|x| !x.is_finite()) {
+            return Err(SamplesError::NotFinite { line: i + 1, value });
         }
         if numbers[1..].iter().all(|x| *x == 0.0) {
-            return Err(format!(
-                "line {}: Omega_d = 0 cannot be projected onto the energy ellipsoid",
-                i + 1
-            ));
+            return Err(SamplesError::Zero { line: i + 1 });
         }
-        if let Some(&prev) = times.last() {
-            if numbers[0] <= prev {
-                return Err(format!(
-                    "line {}: t = {} does not increase (previous t = {prev})",
-                    i + 1,
-                    numbers[0]
-                ));
+        if let Some(&previous) = times.last() {
+            if numbers[0] <= previous {
+                return Err(SamplesError::NotIncreasing {
+                    line: i + 1,
+                    t: numbers[0],
+                    previous,
+                });
             }
+        }
+        if times.len() == MAX_SAMPLE_ROWS {
+            return Err(SamplesError::TooMany {
+                limit: MAX_SAMPLE_ROWS,
+            });
         }
         times.push(numbers[0]);
         values.push([numbers[1], numbers[2], numbers[3]]);
     }
     if times.len() < 2 {
-        return Err(format!("needs at least 2 samples, found {}", times.len()));
+        return Err(SamplesError::TooFew { found: times.len() });
     }
     Ok((times, values))
 }
@@ -763,16 +1117,61 @@ impl ProblemFile {
     /// Check every field and build the problem; `default_name` is used without `name`, and
     /// a relative `desired.file` is looked up in `base_dir`.
     pub fn build(&self, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
-        let name = match &self.name {
-            Some(n) if n.trim().is_empty() => {
-                return Err(ConfigError::Invalid {
-                    field: "name".into(),
-                    message: "is empty; give a case name or remove the key".into(),
-                })
-            }
-            Some(n) => n.clone(),
-            None => default_name.to_string(),
+        self.build_named(&DefaultName::Fixed(default_name.to_string()), base_dir)
+    }
+
+    /// The case name: `name`, or the default; either must be one line of printable text of
+    /// at most [`MAX_NAME_CHARS`] characters.
+    fn case_name(&self, default: &DefaultName) -> Result<String, ConfigError> {
+        let (name, origin) = match (&self.name, default) {
+            (Some(n), _) => (n.as_str(), None),
+            (None, DefaultName::FileStem(n)) => (n.as_str(), Some("the file name")),
+            (None, DefaultName::Fixed(n)) => (n.as_str(), Some("the default name")),
         };
+        let invalid = |what: String| {
+            let message = match origin {
+                None => format!(
+                    "{what}; give a single line of at most {MAX_NAME_CHARS} characters or \
+                     remove the key"
+                ),
+                Some(origin) => format!(
+                    "not given, and {origin} \"{}\" {what}; add name = \"my_case\" at the top \
+                     of the file",
+                    clip(name).escape_debug()
+                ),
+            };
+            ConfigError::Invalid {
+                field: "name".into(),
+                message,
+            }
+        };
+        if name.trim().is_empty() {
+            return Err(invalid("is empty".into()));
+        }
+        let chars = name.chars().count();
+        if chars > MAX_NAME_CHARS {
+            return Err(invalid(format!(
+                "has {chars} characters, at most {MAX_NAME_CHARS} (the name labels \
+                 summary.json and every figure title)"
+            )));
+        }
+        if let Some((k, c)) = name.chars().enumerate().find(|(_, c)| c.is_control()) {
+            return Err(invalid(format!(
+                "contains the control character U+{:04X} at character {}: a case name is one \
+                 line of printable text (it labels summary.json and every figure title)",
+                u32::from(c),
+                k + 1
+            )));
+        }
+        Ok(name.to_string())
+    }
+
+    fn build_named(
+        &self,
+        default_name: &DefaultName,
+        base_dir: &Path,
+    ) -> Result<LoadedProblem, ConfigError> {
+        let name = self.case_name(default_name)?;
         // [body]
         let body = self.body.as_ref().ok_or_else(|| {
             missing(
@@ -1206,21 +1605,26 @@ impl ProblemFile {
                     )
                 })?;
                 let path = base_dir.join(file);
-                let bad = |message: String| ConfigError::Invalid {
-                    field: "desired.file".into(),
-                    message: format!("{}: {message}", path.display()),
+                let bad = |problem| ConfigError::Samples {
+                    path: path.clone(),
+                    problem,
                 };
-                let text = std::fs::read_to_string(&path)
-                    .map_err(|e| bad(format!("cannot read it ({e})")))?;
-                let (times, values) = parse_samples(&text).map_err(&bad)?;
+                let bytes = read_bounded(&path, MAX_SAMPLES_FILE_BYTES).map_err(|e| {
+                    bad(match e {
+                        ReadFailure::Io(e) => SamplesProblem::Read(e),
+                        ReadFailure::File(p) => SamplesProblem::File(p),
+                    })
+                })?;
+                let text = decode(bytes, false).map_err(|p| bad(SamplesProblem::File(p)))?;
+                let (times, values) =
+                    parse_samples(&text).map_err(|e| bad(SamplesProblem::Rows(e)))?;
+                drop(text);
                 let (first, last) = (times[0], times[times.len() - 1]);
                 if !(first <= t0 && t0 < last) {
-                    return Err(bad(format!(
-                        "the samples cover [{first}, {last}], which must contain \
-                         boundary.t0 = {t0} (and reach beyond it)"
-                    )));
+                    return Err(bad(SamplesProblem::Coverage { first, last, t0 }));
                 }
-                let spline = SampledPath::new(&times, &values).map_err(|e| bad(e.to_string()))?;
+                let spline = SampledPath::new(&times, &values)
+                    .map_err(|e| bad(SamplesProblem::Spline(e)))?;
                 let path = Projected::new(spline, *ellipsoid);
                 let end_point = path.value(last);
                 Ok(Desired {
@@ -1234,7 +1638,7 @@ impl ProblemFile {
             }
             other => Err(ConfigError::Invalid {
                 field: "desired.kind".into(),
-                message: format!("unknown kind \"{other}\"; use {KINDS}"),
+                message: format!("unknown kind {:?}; use {KINDS}", clip(other)),
             }),
         }
     }
@@ -1284,8 +1688,9 @@ impl ProblemFile {
                     return Err(ConfigError::Invalid {
                         field: "solver.start".into(),
                         message: format!(
-                            "unknown start \"{other}\"; use \"auto\" (default), \"desired\", \
-                             \"desired-gamma-from-zero\" or \"segment\""
+                            "unknown start {:?}; use \"auto\" (default), \"desired\", \
+                             \"desired-gamma-from-zero\" or \"segment\"",
+                            clip(other)
                         ),
                     })
                 }

@@ -3,7 +3,10 @@
 //! Each test is the regression test of one defect; every error must name the field, say what
 //! was expected and found, and stay short.
 
-use suslov::config::{self, ConfigError};
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+use suslov::config::{self, ConfigError, FileProblem};
 
 /// The paper's η = 1 problem file, the base most tests modify.
 const BASE: &str = include_str!("../examples/paper_eta1.toml");
@@ -56,6 +59,35 @@ fn assert_contains(msg: &str, words: &[&str]) {
     for w in words {
         assert!(msg.contains(w), "message lacks {w:?}: {msg}");
     }
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR"))
+        .join("config_hostile")
+        .join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// `BASE` as a samples problem reading `file`.
+fn samples_doc(file: &str) -> String {
+    BASE.replace(
+        "kind = \"paper-spiral\"",
+        &format!("kind = \"samples\"\nfile = \"{file}\""),
+    )
+    .replace("c = 10.0\n", "")
+    .replace("width = 0.01\n", "")
+    .replace("b_d = 10.0\n", "")
+}
+
+/// Loads a samples problem whose CSV is `csv` (both written to a scratch directory).
+fn samples_problem(name: &str, csv: &[u8]) -> Result<config::LoadedProblem, ConfigError> {
+    let dir = scratch(name);
+    std::fs::write(dir.join("samples.csv"), csv).unwrap();
+    let path = dir.join("problem.toml");
+    std::fs::write(&path, samples_doc("samples.csv")).unwrap();
+    config::load(&path)
 }
 
 // ---------------------------------------------------------------------------------------
@@ -157,4 +189,168 @@ fn a_hundred_thousand_entry_array_is_counted_not_truncated() {
         "body.inertia",
     );
     assert_contains(&msg, &["has 100000 entries, expected 3"]);
+}
+// ---------------------------------------------------------------------------------------
+// Defect 2: unbounded resources.
+
+#[test]
+fn a_long_name_is_rejected_before_any_work() {
+    let long = "x".repeat(100_000);
+    let clock = Instant::now();
+    let (_, msg) = error(
+        &with_line(BASE, "name =", &format!("name = \"{long}\"")),
+        "name",
+    );
+    assert!(clock.elapsed() < Duration::from_secs(1));
+    assert_contains(&msg, &["100000 characters", "at most 200"]);
+    for bad in ["\"a\\nb\"", "\"tab\\there\"", "\"bell\\u0007\""] {
+        let (_, msg) = error(&with_line(BASE, "name =", &format!("name = {bad}")), "name");
+        assert_contains(&msg, &["control character"]);
+    }
+    // 200 characters (not bytes) are fine.
+    let ok = "é".repeat(200);
+    let p = config::from_toml_str(&with_line(BASE, "name =", &format!("name = \"{ok}\""))).unwrap();
+    assert_eq!(p.name.chars().count(), 200);
+}
+
+#[test]
+fn a_file_name_that_is_no_usable_case_name_asks_for_a_name() {
+    let dir = scratch("stem");
+    let path = dir.join(format!("{}.toml", "y".repeat(250)));
+    std::fs::write(&path, BASE.replace("name = \"paper_eta1\"", "")).unwrap();
+    let e = config::load(&path).unwrap_err();
+    let (_, msg) = check_error(e, "name");
+    assert_contains(&msg, &["file name", "add name = "]);
+}
+
+#[test]
+fn an_oversized_problem_file_is_rejected_without_reading_it_whole() {
+    let dir = scratch("big_problem");
+    let path = dir.join("big.toml");
+    // A ten-million-entry array: 20 MB.
+    let long = vec!["1"; 10_000_000].join(",");
+    std::fs::write(
+        &path,
+        with_line(BASE, "inertia =", &format!("inertia = [{long}]")),
+    )
+    .unwrap();
+    let clock = Instant::now();
+    let e = config::load(&path).unwrap_err();
+    assert!(clock.elapsed() < Duration::from_secs(2));
+    let msg = e.to_string();
+    assert!(
+        matches!(
+            e.inner(),
+            ConfigError::File {
+                problem: FileProblem::TooLarge { .. },
+                ..
+            }
+        ),
+        "{msg}"
+    );
+    assert_contains(&msg, &["big.toml", "larger than", "1 MiB"]);
+    assert!(msg.len() <= MAX_MESSAGE);
+    // The same text given as a string.
+    let text = std::fs::read_to_string(&path).unwrap();
+    let e = config::from_toml_str(&text).unwrap_err();
+    assert!(matches!(e, ConfigError::TooLarge { .. }), "{e}");
+}
+
+#[test]
+fn a_problem_path_that_is_no_regular_file_is_rejected() {
+    for (path, words) in [("/dev/zero", "not a regular file"), ("/tmp", "a directory")] {
+        let clock = Instant::now();
+        let e = config::load(Path::new(path)).unwrap_err();
+        assert!(clock.elapsed() < Duration::from_secs(1));
+        assert_contains(&e.to_string(), &[path, words]);
+    }
+}
+
+#[test]
+fn a_samples_file_that_is_no_regular_file_or_too_large_is_rejected() {
+    let dir = scratch("samples_special");
+    let path = dir.join("p.toml");
+    for (file, words) in [("/dev/zero", "not a regular file"), ("/tmp", "a directory")] {
+        std::fs::write(&path, samples_doc(file)).unwrap();
+        let clock = Instant::now();
+        let e = config::load(&path).unwrap_err();
+        assert!(clock.elapsed() < Duration::from_secs(1));
+        let (_, msg) = check_error(e, "desired.file");
+        assert_contains(&msg, &[file, words]);
+    }
+    // A (sparse) file one byte over the cap.
+    let big = dir.join("big.csv");
+    let f = std::fs::File::create(&big).unwrap();
+    f.set_len(config::MAX_SAMPLES_FILE_BYTES + 1).unwrap();
+    std::fs::write(&path, samples_doc("big.csv")).unwrap();
+    let clock = Instant::now();
+    let e = config::load(&path).unwrap_err();
+    assert!(clock.elapsed() < Duration::from_secs(1));
+    let (_, msg) = check_error(e, "desired.file");
+    assert_contains(&msg, &["larger than", "64 MiB"]);
+}
+
+#[test]
+fn the_number_of_sample_rows_is_capped() {
+    let n = config::MAX_SAMPLE_ROWS + 1;
+    let mut csv = String::with_capacity(n * 16);
+    for k in 0..n {
+        csv.push_str(&format!("{k},10,0,0\n"));
+    }
+    let e = samples_problem("many_rows", csv.as_bytes()).unwrap_err();
+    let (_, msg) = check_error(e, "desired.file");
+    assert_contains(&msg, &["more than", "rows"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Defect 5 (input echo): long lines and BOMs.
+
+#[test]
+fn a_long_toml_line_is_not_echoed_whole() {
+    let long = "x".repeat(900_000);
+    let (_, msg) = error(
+        &with_line(BASE, "beta =", &format!("beta = \"{long}\"")),
+        "cost.beta",
+    );
+    assert_contains(&msg, &["invalid type", "…"]);
+    let (_, msg) = error(
+        &with_line(BASE, "kind =", &format!("kind = \"{long}\"")),
+        "desired.kind",
+    );
+    assert_contains(&msg, &["unknown kind", "…"]);
+}
+
+#[test]
+fn a_long_csv_line_is_not_echoed_whole() {
+    let csv = format!("0,10,0,0\n1,10,{},0\n", "7".repeat(10_000_000) + "x");
+    let e = samples_problem("long_line", csv.as_bytes()).unwrap_err();
+    let (_, msg) = check_error(e, "desired.file");
+    assert_contains(&msg, &["line 2", "…"]);
+}
+
+#[test]
+fn a_byte_order_mark_is_skipped_in_toml_and_csv() {
+    let p = config::from_toml_str(&format!("\u{feff}{BASE}")).unwrap();
+    assert_eq!(p.name, "paper_eta1");
+    let dir = scratch("bom_toml");
+    let path = dir.join("p.toml");
+    std::fs::write(&path, format!("\u{feff}{BASE}")).unwrap();
+    config::load(&path).unwrap();
+
+    let csv = "\u{feff}# the paper's spiral\nt,w1,w2,w3\n0,10,0,0\n5,10,1,2\n10,10,-1,3\n";
+    let p = samples_problem("bom_csv", csv.as_bytes()).unwrap();
+    assert!((p.problem.desired.value(0.0) - p.problem.omega_a).norm() < 1e-14);
+}
+
+#[test]
+fn a_problem_file_that_is_not_utf8_names_the_line() {
+    let dir = scratch("not_utf8");
+    let path = dir.join("p.toml");
+    let mut bytes = BASE.as_bytes().to_vec();
+    let at = BASE.find("beta = 0.1").unwrap() + "beta = ".len();
+    bytes.splice(at..at + 3, [0xff, 0xfe, b'1']);
+    std::fs::write(&path, &bytes).unwrap();
+    let e = config::load(&path).unwrap_err();
+    let (_, msg) = check_error(e, "cost.beta");
+    assert_contains(&msg, &["not valid UTF-8", "line 15"]);
 }
