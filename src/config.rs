@@ -101,9 +101,46 @@ pub const MAX_NAME_CHARS: usize = 200;
 pub const MAX_SAMPLES_FILE_BYTES: u64 = 64 << 20;
 
 /// Most rows of a samples file. The spline holds ~130 bytes per row and building it ~200
-/// (a million rows: ~200 MB), and a BVP mesh (a few ten thousand nodes at most) cannot
-/// resolve more detail than that many samples carry anyway.
+/// (a million rows: ~200 MB), and a BVP mesh of at most [`MAX_NODES`] nodes cannot resolve
+/// more detail than that many samples carry anyway.
 pub const MAX_SAMPLE_ROWS: usize = 1_000_000;
+
+/// Memory of one BVP mesh node, measured: peak RSS of `suslov solve examples/segment.toml`
+/// with `initial_intervals` = 1000, 4000, 16000, 32000 grows by 45.7 kB per interval
+/// (58 MB, 215 MB, 736 MB, 1.47 GB; release build). The tester's `initial_intervals = 1e5`
+/// took 4.5 GB and 74 s, `3e5` aborted with "memory allocation failed".
+pub const MEMORY_PER_NODE_BYTES: u64 = 46_000;
+
+/// Cap on `solver.max_nodes`: ~2.3 GB at [`MEMORY_PER_NODE_BYTES`], which a common machine
+/// has; the examples converge with a few hundred nodes, the default cap is 20000.
+pub const MAX_NODES: usize = 50_000;
+
+/// Cap on `solver.initial_intervals`: ~0.5 GB and ~5 s for the first solve (measured at
+/// 16000: 7.6 s in all); it stays below the default `max_nodes` (20000), so a capped value
+/// never needs `max_nodes` too. The default is 100.
+pub const MAX_INITIAL_INTERVALS: usize = 10_000;
+
+/// Allowed `solver.tolerance`. The BVP solver's `tol` is both the relative and the absolute
+/// tolerance of a per-interval error estimate (`h |residual|` against `tol (1 + |y|)`,
+/// [`crate::bvp::Options`]), and Newton stops at 1e-2 of that. Below 1e-12 this asks for
+/// corrections at the round-off of the collocation system: measured, 1e-13 failed on the
+/// paper's η = 1 and the segment example (Newton or mesh passes exhausted), 1e-12 converged
+/// on 2 of 4 examples, 1e-11 on all. Above 1e-3 the estimate stops being an error bound on
+/// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); the paper uses 1e-8.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-3);
+
+/// Allowed `solver.continuation_tolerance`: the same floor as [`TOLERANCE_RANGE`]; the
+/// continuation only has to follow the path, but at 1e-1 the paper's analytic start already
+/// failed to converge (measured), while 1e-2 gave the same `b` to 1e-10. Default 1e-4.
+pub const CONTINUATION_TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-2);
+
+/// `solver.beta_m` must lie in `[BETA_M_MIN_RATIO · β, β]`. The analytic start is the
+/// singular (`β → 0`) solution solved at `β = β_m`, then continued `β_m → β`
+/// (`suslov::solve`), so `β_m > β` defeats it (measured on the paper's η = 1: `β_m` = 1 and
+/// 10 with `β` = 0.1 did not converge); `β_m` = `β` skips the β stage. Far below `β` the
+/// start's system becomes singular (measured: from `β_m` = 1e-5 `β` on); the floor only
+/// rejects values no start can use.
+pub const BETA_M_MIN_RATIO: f64 = 1e-8;
 
 /// Longest piece of input echoed in a message (characters; longer ones end in `…`).
 pub const MAX_ECHO_CHARS: usize = 200;
@@ -1438,7 +1475,7 @@ impl ProblemFile {
             }
         }
 
-        let options = self.solve_options()?;
+        let options = self.solve_options(beta)?;
         let problem = SuslovProblem {
             inertia,
             weights: CostWeights {
@@ -1643,40 +1680,98 @@ impl ProblemFile {
         }
     }
 
-    fn solve_options(&self) -> Result<SolveOptions, ConfigError> {
+    /// `[solver]`, checked against the caps and ranges above; `beta` is `cost.beta`.
+    fn solve_options(&self, beta: f64) -> Result<SolveOptions, ConfigError> {
         let mut o = SolveOptions::default();
         let Some(s) = &self.solver else {
             return Ok(o);
         };
+        let in_range = |field: &str, v: f64, (lo, hi): (f64, f64), why: &str| {
+            finite(field, v)?;
+            if (lo..=hi).contains(&v) {
+                Ok(v)
+            } else {
+                Err(ConfigError::OutOfRange {
+                    field: field.into(),
+                    value: Num(v).to_string(),
+                    requirement: format!("must lie between {lo:e} and {hi:e}: {why}"),
+                })
+            }
+        };
         if let Some(v) = s.tolerance {
-            o.tol = positive("solver.tolerance", v, "the BVP error tolerance")?;
+            o.tol = in_range(
+                "solver.tolerance",
+                v,
+                TOLERANCE_RANGE,
+                "below, f64 round-off keeps Newton from converging; above, the error \
+                 estimate is no longer an error bound (e.g. 1e-8)",
+            )?;
         }
         if let Some(v) = s.continuation_tolerance {
-            o.continuation_tol = positive(
+            o.continuation_tol = in_range(
                 "solver.continuation_tolerance",
                 v,
-                "the BVP error tolerance during continuation",
+                CONTINUATION_TOLERANCE_RANGE,
+                "below, f64 round-off keeps Newton from converging; above, the continuation \
+                 steps lose the path (e.g. 1e-4)",
             )?;
         }
         if let Some(v) = s.beta_m {
-            o.beta_m = Some(positive(
-                "solver.beta_m",
-                v,
-                "the small beta of the analytic start; beta = 0 is singular",
-            )?);
-        }
-        if let Some(n) = s.initial_intervals {
-            if n < 2 {
+            let (lo, hi) = (BETA_M_MIN_RATIO * beta, beta);
+            finite("solver.beta_m", v)?;
+            if !(lo..=hi).contains(&v) {
                 return Err(ConfigError::OutOfRange {
-                    field: "solver.initial_intervals".into(),
-                    value: n.to_string(),
-                    requirement: "must be >= 2 (intervals of the initial mesh); e.g. 200".into(),
+                    field: "solver.beta_m".into(),
+                    value: Num(v).to_string(),
+                    requirement: format!(
+                        "must lie between {} and cost.beta = {} (the analytic start solves \
+                         the problem at beta = beta_m, valid for small beta, and continues \
+                         beta_m -> beta; the default is 1e-2 min(alpha, beta, gamma or 1)); \
+                         remove it or give e.g. {}",
+                        Num(lo),
+                        Num(hi),
+                        Num(1e-2 * beta)
+                    ),
                 });
             }
-            o.initial_intervals = n;
+            o.beta_m = Some(v);
+        }
+        // The caps first: a huge initial_intervals is its own error, not max_nodes'.
+        let capped = |field: &str, n: usize, (lo, cap): (usize, usize), what: &str| {
+            if (lo..=cap).contains(&n) {
+                Ok(n)
+            } else {
+                Err(ConfigError::OutOfRange {
+                    field: field.into(),
+                    value: n.to_string(),
+                    requirement: if n < lo {
+                        format!("must be >= {lo} ({what})")
+                    } else {
+                        format!(
+                            "at most {cap} ({what}); a BVP node costs ~{} kB of memory \
+                             (measured), so the cap bounds a solve to ~{:.1} GB",
+                            MEMORY_PER_NODE_BYTES / 1000,
+                            (cap as u64 * MEMORY_PER_NODE_BYTES) as f64 / 1e9
+                        )
+                    },
+                })
+            }
+        };
+        if let Some(n) = s.initial_intervals {
+            o.initial_intervals = capped(
+                "solver.initial_intervals",
+                n,
+                (2, MAX_INITIAL_INTERVALS),
+                "intervals of the initial mesh, e.g. 200",
+            )?;
         }
         if let Some(n) = s.max_nodes {
-            o.max_nodes = n;
+            o.max_nodes = capped(
+                "solver.max_nodes",
+                n,
+                (3, MAX_NODES),
+                "node cap of every BVP solve, e.g. 20000",
+            )?;
         }
         if let Some(start) = &s.start {
             o.start = match start.as_str() {
@@ -1697,12 +1792,18 @@ impl ProblemFile {
             };
         }
         if o.max_nodes <= o.initial_intervals {
+            // Only reachable with both keys given (the default max_nodes exceeds the cap on
+            // initial_intervals); suggest a value above initial_intervals within the cap.
+            let suggestion = SolveOptions::default()
+                .max_nodes
+                .max(2 * (o.initial_intervals + 1))
+                .min(MAX_NODES);
             return Err(ConfigError::OutOfRange {
                 field: "solver.max_nodes".into(),
                 value: o.max_nodes.to_string(),
                 requirement: format!(
                     "must exceed solver.initial_intervals = {} (the initial mesh has that \
-                     many intervals plus one nodes); e.g. 20000",
+                     many intervals plus one nodes); e.g. {suggestion}",
                     o.initial_intervals
                 ),
             });

@@ -354,3 +354,106 @@ fn a_problem_file_that_is_not_utf8_names_the_line() {
     let (_, msg) = check_error(e, "cost.beta");
     assert_contains(&msg, &["not valid UTF-8", "line 15"]);
 }
+
+// ---------------------------------------------------------------------------------------
+// Defects 2, 3 and 5 (solver options): resource caps, tolerances, beta_m, the key blamed.
+
+/// `BASE` with `lines` under `[solver]`.
+fn with_solver(lines: &str) -> String {
+    BASE.replace("[solver]", &format!("[solver]\n{lines}"))
+        .replace("tolerance = 1e-8\n", "")
+}
+
+#[test]
+fn mesh_sizes_are_capped_and_the_cap_on_initial_intervals_comes_first() {
+    let (_, msg) = error(
+        &with_solver("initial_intervals = 1000000000"),
+        "solver.initial_intervals",
+    );
+    assert_contains(&msg, &["1000000000", "at most 10000", "memory"]);
+    // Even with a max_nodes that would be smaller.
+    let (_, msg) = error(
+        &with_solver("initial_intervals = 1000000000\nmax_nodes = 20000"),
+        "solver.initial_intervals",
+    );
+    assert_contains(&msg, &["at most 10000"]);
+    let (_, msg) = error(
+        &with_solver("max_nodes = 1000000000000"),
+        "solver.max_nodes",
+    );
+    assert_contains(&msg, &["at most 50000", "memory"]);
+    // At the caps: accepted.
+    let p = config::from_toml_str(&with_solver("initial_intervals = 10000\nmax_nodes = 50000"))
+        .unwrap();
+    assert_eq!(
+        (p.options.initial_intervals, p.options.max_nodes),
+        (10000, 50000)
+    );
+    // max_nodes not above initial_intervals: the suggestion is a value that works.
+    let (_, msg) = error(
+        &with_solver("initial_intervals = 9000\nmax_nodes = 9000"),
+        "solver.max_nodes",
+    );
+    assert_contains(
+        &msg,
+        &["must exceed solver.initial_intervals = 9000", "e.g. 20000"],
+    );
+}
+
+#[test]
+fn tolerances_outside_their_sensible_range_are_rejected() {
+    for (line, field, words) in [
+        (
+            "tolerance = 1.0",
+            "solver.tolerance",
+            "between 1e-12 and 1e-3",
+        ),
+        (
+            "tolerance = 1e-2",
+            "solver.tolerance",
+            "between 1e-12 and 1e-3",
+        ),
+        (
+            "tolerance = 1e-16",
+            "solver.tolerance",
+            "between 1e-12 and 1e-3",
+        ),
+        (
+            "continuation_tolerance = 0.5",
+            "solver.continuation_tolerance",
+            "between 1e-12 and 1e-2",
+        ),
+        (
+            "continuation_tolerance = 1e-20",
+            "solver.continuation_tolerance",
+            "between 1e-12 and 1e-2",
+        ),
+    ] {
+        let (_, msg) = error(&with_solver(line), field);
+        assert_contains(&msg, &[words]);
+    }
+    let p = config::from_toml_str(&with_solver(
+        "tolerance = 1e-12\ncontinuation_tolerance = 1e-2",
+    ))
+    .unwrap();
+    assert_eq!((p.options.tol, p.options.continuation_tol), (1e-12, 1e-2));
+    let p = config::from_toml_str(&with_solver(
+        "tolerance = 1e-3\ncontinuation_tolerance = 1e-12",
+    ))
+    .unwrap();
+    assert_eq!((p.options.tol, p.options.continuation_tol), (1e-3, 1e-12));
+}
+
+#[test]
+fn beta_m_must_lie_below_beta() {
+    // cost.beta = 0.1 in BASE.
+    for line in ["beta_m = 10.0", "beta_m = 0.2"] {
+        let (_, msg) = error(&with_solver(line), "solver.beta_m");
+        assert_contains(&msg, &["cost.beta = 0.1"]);
+    }
+    let (_, msg) = error(&with_solver("beta_m = 1e-300"), "solver.beta_m");
+    assert_contains(&msg, &["1e-300", "cost.beta = 0.1"]);
+    for ok in ["beta_m = 0.1", "beta_m = 1e-9"] {
+        config::from_toml_str(&with_solver(ok)).unwrap();
+    }
+}
