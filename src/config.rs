@@ -856,22 +856,40 @@ fn field_at(src: &str, pos: usize) -> Option<String> {
     (!parts.is_empty()).then(|| parts.join("."))
 }
 
-/// [`ConfigError::OffEllipsoid`] unless `v` is on `e` (relative energy within
-/// [`ENERGY_REL_TOL`]).
-fn on_ellipsoid(field: &str, e: &EnergyEllipsoid, v: &Vector3<f64>) -> Result<(), ConfigError> {
-    let mismatch = e.relative_mismatch(v);
-    if mismatch.abs() <= ENERGY_REL_TOL {
-        return Ok(());
+/// `v` projected radially onto `e` (a change of at most ~[`ENERGY_REL_TOL`]` / 2` relative),
+/// or [`ConfigError::OffEllipsoid`] if it is further off than `ENERGY_REL_TOL` (relative
+/// energy) or [`ConfigError::ZeroVector`] if it is 0. Every vector that must lie on the
+/// ellipsoid goes through here, so the validated problem carries it on `E` to round-off and
+/// no later, stricter check can reject what validation accepted.
+fn onto_ellipsoid(
+    field: &str,
+    e: &EnergyEllipsoid,
+    v: &Vector3<f64>,
+) -> Result<Vector3<f64>, ConfigError> {
+    if v.iter().all(|x| *x == 0.0) {
+        return Err(ConfigError::ZeroVector {
+            field: field.to_string(),
+            why: "it must lie on omega_a's energy ellipsoid (Suslov's equations conserve the \
+                  kinetic energy), which does not contain 0",
+        });
     }
-    let projection = e
-        .project(v)
-        .map(|p| [p[0], p[1], p[2]])
-        .unwrap_or([f64::NAN; 3]);
+    let projection = e.project(v).map_err(|err| ConfigError::Invalid {
+        field: field.to_string(),
+        message: format!("{err}; rescale it"),
+    })?;
+    let mismatch = e.relative_mismatch(v);
+    if mismatch.abs() <= 8.0 * f64::EPSILON {
+        // On E to round-off already (e.g. a path's computed end point): keep it bit for bit.
+        return Ok(*v);
+    }
+    if mismatch.abs() <= ENERGY_REL_TOL {
+        return Ok(projection);
+    }
     Err(ConfigError::OffEllipsoid {
         field: field.to_string(),
         value: [v[0], v[1], v[2]],
         mismatch,
-        projection,
+        projection: [projection[0], projection[1], projection[2]],
     })
 }
 
@@ -1456,7 +1474,7 @@ impl ProblemFile {
             OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
             OmegaBSpec::Vector(_) => "boundary.omega_b",
         };
-        on_ellipsoid(field, &ellipsoid, &omega_b)?;
+        let omega_b = onto_ellipsoid(field, &ellipsoid, &omega_b)?;
 
         // The desired path starts at Omega_a.
         if gamma > 0.0 {
@@ -1553,9 +1571,12 @@ impl ProblemFile {
                     Some(v) => vector3("desired.from", v)?,
                     None => omega_a,
                 };
-                let to = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
-                    (Some(v), _) => vector3("desired.to", v)?,
-                    (None, Some(OmegaBSpec::Vector(v))) => vector3("boundary.omega_b", v)?,
+                // The key `to` comes from (the message must name a key in the file).
+                let (to_key, to) = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
+                    (Some(v), _) => ("desired.to", vector3("desired.to", v)?),
+                    (None, Some(OmegaBSpec::Vector(v))) => {
+                        ("boundary.omega_b", vector3("boundary.omega_b", v)?)
+                    }
                     (None, _) => {
                         return Err(missing(
                             "desired.to",
@@ -1564,6 +1585,11 @@ impl ProblemFile {
                              [desired]",
                         ))
                     }
+                };
+                let from_key = if d.from.is_some() {
+                    "desired.from"
+                } else {
+                    "boundary.omega_a"
                 };
                 let (a, b) = match (d.interval, terminal) {
                     (Some(interval), _) => {
@@ -1589,23 +1615,22 @@ impl ProblemFile {
                         requirement: "needs start < end; give interval = [t_start, t_end]".into(),
                     });
                 }
-                for (key, v) in [("desired.from", from), ("desired.to", to)] {
-                    if v.iter().all(|x| *x == 0.0) {
-                        return Err(ConfigError::ZeroVector {
-                            field: key.into(),
-                            why: "the segment's end points are projected radially onto the \
-                                  energy ellipsoid, which is undefined at 0",
-                        });
-                    }
-                    on_ellipsoid(key, ellipsoid, &v)?;
-                }
-                // ProjectedSegment is built through `from`'s ellipsoid, equal to Ω_a's.
-                let segment = ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| {
-                    ConfigError::Invalid {
-                        field: "desired.to".into(),
-                        message: format!("{e}; choose end points that are not opposite"),
-                    }
-                })?;
+                let from = onto_ellipsoid(from_key, ellipsoid, &from)?;
+                let to = onto_ellipsoid(to_key, ellipsoid, &to)?;
+                let segment =
+                    ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| match e {
+                        SuslovError::SegmentThroughOrigin { .. } => ConfigError::Invalid {
+                            field: to_key.into(),
+                            message: format!(
+                                "{e}; choose end points that are not opposite (or go \
+                                 through a point in between with a samples path)"
+                            ),
+                        },
+                        other => ConfigError::Invalid {
+                            field: "desired".into(),
+                            message: other.to_string(),
+                        },
+                    })?;
                 Ok(Desired {
                     kind: "segment",
                     path: Arc::new(segment),
@@ -1846,6 +1871,10 @@ fn problem_error(e: ProblemError) -> ConfigError {
             value: omega_b,
             mismatch,
             projection,
+        },
+        ProblemError::ZeroOmegaB => ConfigError::ZeroVector {
+            field: "boundary.omega_b".into(),
+            why: "Suslov's equations conserve omega_a's kinetic energy, so no motion reaches 0",
         },
         ProblemError::ZeroOmegaA => ConfigError::ZeroVector {
             field: "boundary.omega_a".into(),

@@ -457,3 +457,116 @@ fn beta_m_must_lie_below_beta() {
         config::from_toml_str(&with_solver(ok)).unwrap();
     }
 }
+
+// ---------------------------------------------------------------------------------------
+// Defect 4: one energy tolerance everywhere (validation accepted 1e-9, the segment 1e-12).
+
+/// `[1, 2, 0]` (on the ellipsoid of `[3, 0, 0]`, `I = diag(1, 2, 3)`) scaled by
+/// `sqrt(1 + 5e-10)`: a relative energy mismatch of 5e-10, within `ENERGY_REL_TOL` = 1e-9.
+const OMEGA_B_5E_10: &str = "[1.00000000025, 2.0000000005, 0.0]";
+
+fn mismatch_of(p: &config::LoadedProblem) -> f64 {
+    p.problem
+        .ellipsoid()
+        .relative_mismatch(&p.problem.omega_b)
+        .abs()
+}
+
+#[test]
+fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start() {
+    let off = nalgebra::Vector3::new(1.00000000025, 2.0000000005, 0.0);
+    let e = suslov::suslov::EnergyEllipsoid::through(
+        suslov::suslov::Inertia::paper(),
+        &nalgebra::Vector3::new(3.0, 0.0, 0.0),
+    )
+    .unwrap();
+    let m = e.relative_mismatch(&off);
+    assert!((4e-10..6e-10).contains(&m), "{m:e}");
+
+    // A segment path through the off point (it used to fail: "not opposite").
+    let doc = SEGMENT.replace(
+        "omega_b = [1.0, 2.0, 0.0]",
+        &format!("omega_b = {OMEGA_B_5E_10}"),
+    );
+    let p = config::from_toml_str(&doc).unwrap();
+    // The validated problem carries Omega_b projected onto the ellipsoid.
+    assert!(mismatch_of(&p) < 1e-15, "{:e}", mismatch_of(&p));
+    assert!((p.problem.omega_b - off).norm() < 1e-9);
+
+    // gamma = 0: the solver's start is the projected segment to Omega_b (it used to fail
+    // with "cannot build the analytic start: Omega_b is off ...").
+    let doc = SEGMENT
+        .replace(
+            "omega_b = [1.0, 2.0, 0.0]",
+            &format!("omega_b = {OMEGA_B_5E_10}"),
+        )
+        .replace("gamma = 1.0", "gamma = 0.0")
+        .replace(
+            "kind = \"segment\"",
+            "kind = \"constant\"\nvalue = [3.0, 0.0, 0.0]",
+        );
+    let p = config::from_toml_str(&doc).unwrap();
+    let clock = Instant::now();
+    let sol = suslov::suslov::solve::solve(&p.problem, &p.options, &mut |_| {}).unwrap();
+    assert!(clock.elapsed() < Duration::from_secs(20));
+    assert_eq!(sol.start.case, 1);
+    let end: Vec<f64> = sol.bvp.eval(1.0)[..3].to_vec();
+    let end = nalgebra::Vector3::new(end[0], end[1], end[2]);
+    assert!((end - off).norm() < 1e-8, "{end}");
+}
+
+#[test]
+fn a_problem_built_in_code_with_omega_b_within_the_tolerance_builds_the_segment_start() {
+    use suslov::suslov::problem::{CostWeights, SuslovProblem, TerminalTime};
+    let off = nalgebra::Vector3::new(1.00000000025, 2.0000000005, 0.0);
+    let problem = SuslovProblem {
+        inertia: suslov::suslov::Inertia::paper(),
+        weights: CostWeights {
+            alpha: 1.0,
+            beta: 0.1,
+            gamma: 0.0,
+            eta: 0.0,
+            delta: 0.0,
+        },
+        t0: 0.0,
+        omega_a: nalgebra::Vector3::new(3.0, 0.0, 0.0),
+        omega_b: off,
+        terminal: TerminalTime::Fixed(4.0),
+        desired: std::sync::Arc::new(suslov::suslov::Constant(nalgebra::Vector3::new(
+            3.0, 0.0, 0.0,
+        ))),
+    };
+    problem.validate().unwrap();
+    let sol = suslov::suslov::solve::solve(&problem, &Default::default(), &mut |_| {}).unwrap();
+    assert_eq!(sol.start.omega_p, "projected segment");
+}
+
+// ---------------------------------------------------------------------------------------
+// Defect 5: messages that blamed the wrong key or printed NaN.
+
+#[test]
+fn an_off_ellipsoid_omega_b_behind_a_segment_is_blamed_on_omega_b() {
+    let doc = SEGMENT.replace("omega_b = [1.0, 2.0, 0.0]", "omega_b = [1.0, 2.0, 0.1]");
+    let (_, msg) = error(&doc, "boundary.omega_b");
+    assert_contains(
+        &msg,
+        &["off omega_a's energy ellipsoid", "radial projection"],
+    );
+    // An explicit `to` is still blamed as such.
+    let (_, msg) = error(&format!("{SEGMENT}to = [1.0, 2.0, 0.1]\n"), "desired.to");
+    assert_contains(&msg, &["off omega_a's energy ellipsoid"]);
+}
+
+#[test]
+fn a_segment_from_omega_a_to_itself_is_the_constant_path() {
+    let doc = SEGMENT.replace("omega_b = [1.0, 2.0, 0.0]", "omega_b = [3.0, 0.0, 0.0]");
+    let p = config::from_toml_str(&doc).unwrap();
+    for t in [0.0, 1.0, 4.0, 7.0] {
+        let jet = p.problem.desired.jet(t);
+        assert_eq!(jet.value, p.problem.omega_a);
+        assert_eq!(jet.d1, nalgebra::Vector3::zeros());
+    }
+    // Antipodal end points: the message gives a distance, never NaN.
+    let (_, msg) = error(&format!("{SEGMENT}to = [-3.0, 0.0, 0.0]\n"), "desired.to");
+    assert_contains(&msg, &["origin", "opposite"]);
+}

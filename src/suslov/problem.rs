@@ -141,6 +141,12 @@ pub enum ProblemError {
         /// The projection to use instead.
         projection: [f64; 3],
     },
+    /// `Ω_b = 0`: not on any energy ellipsoid, and with no radial projection.
+    #[error(
+        "omega_b must be nonzero: Suslov's equations conserve the kinetic energy of omega_a, \
+         so no motion reaches 0"
+    )]
+    ZeroOmegaB,
     /// `Ω_a = 0`: the ellipsoid degenerates.
     #[error("omega_a must be nonzero (it fixes the kinetic energy of the motion)")]
     ZeroOmegaA,
@@ -231,10 +237,14 @@ impl SuslovProblem {
         if b <= self.t0 {
             return Err(ProblemError::EmptyInterval { t0: self.t0, b });
         }
+        if self.omega_b.iter().all(|x| *x == 0.0) {
+            return Err(ProblemError::ZeroOmegaB);
+        }
         let e = self.ellipsoid();
         let mismatch = e.relative_mismatch(&self.omega_b);
         let on_ellipsoid = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN too
         if !on_ellipsoid {
+            // Finite and nonzero (checked above): the projection exists.
             let projection = e
                 .project(&self.omega_b)
                 .map(|v| [v[0], v[1], v[2]])
