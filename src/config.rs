@@ -471,7 +471,8 @@ pub enum ConfigError {
     },
     /// `α` or `β` not positive: the optimal control problem is singular.
     #[error(
-        "`{field}` = {value} makes the problem singular: {why}; give a value > 0 (e.g. {example})"
+        "`{field}` = {} makes the problem singular: {why}; give a value > 0 (e.g. {example})",
+        Num(*value)
     )]
     Singular {
         /// The key.
@@ -927,7 +928,7 @@ fn positive(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> {
     } else {
         Err(ConfigError::OutOfRange {
             field: field.to_string(),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: format!("must be > 0 ({why})"),
         })
     }
@@ -940,7 +941,7 @@ fn non_negative(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> 
     } else {
         Err(ConfigError::OutOfRange {
             field: field.to_string(),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: format!("must be >= 0 ({why}); use 0 to switch the term off"),
         })
     }
@@ -987,7 +988,58 @@ struct Desired {
     start_hint: &'static str,
     /// The path's natural end time (default start value of a free terminal time).
     end_time: Option<f64>,
+    /// The key to blame when the path is not finite somewhere ([`check_path_finite`]), and
+    /// what to change.
+    overflow: (&'static str, &'static str),
+    /// Times where the path changes fastest (checked besides a uniform grid).
+    special_times: Vec<f64>,
 }
+
+/// Points of the uniform grid on `[t0, b]` at which [`check_path_finite`] evaluates the
+/// path (besides `t0`, `b`, the path's end time and its special times).
+const PATH_CHECK_POINTS: usize = 1025;
+
+/// The desired path's value and first three derivatives (the BVP uses the first, the
+/// start's singular control up to the third) must be finite in `f64` on `[t0, b]`: a
+/// sigmoid narrower than `f64` can differentiate (`1/width³` overflows), samples `1e-300`
+/// apart or a segment over `1e-300` time units give infinities, which the solver would only
+/// report later as an unrelated failure ("Property 3 fails"). Checked at `t0`, `b`, the
+/// path's end time and special times, and on a uniform grid.
+fn check_path_finite(desired: &Desired, t0: f64, b: f64) -> Result<(), ConfigError> {
+    let grid =
+        (0..PATH_CHECK_POINTS).map(|k| t0 + (b - t0) * k as f64 / (PATH_CHECK_POINTS - 1) as f64);
+    let times = [t0, b]
+        .into_iter()
+        .chain(desired.end_time)
+        .chain(desired.special_times.iter().copied())
+        .chain(grid);
+    for t in times {
+        let jet = desired.path.jet(t);
+        let finite = [jet.value, jet.d1, jet.d2, jet.d3]
+            .iter()
+            .all(|v| v.iter().all(|x| x.is_finite()));
+        if !finite {
+            let (field, fix) = desired.overflow;
+            return Err(ConfigError::Invalid {
+                field: field.into(),
+                message: format!(
+                    "the desired path ([desired] kind = \"{}\") or one of its first three \
+                     time derivatives is not finite at t = {} (it overflows f64); {fix}",
+                    desired.kind,
+                    Num(t)
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// `b − t0` must be at least this fraction of `max(|t0|, |b|)`. The solver evaluates the
+/// desired path at `t = t0 + s (b − t0)`, rounded to ~`2.2e-16 |t|`; with the bound that is
+/// at most `2.2e-10` of the span, i.e. `2.2e-4` of the smallest interval of a mesh graded a
+/// million to one. (`t0` = 1.7e9, Unix seconds, with a 10 s span would round every time to
+/// 2.4e-7 s.)
+pub const TIME_SPAN_REL_MIN: f64 = 1e-6;
 
 /// Terminal time as given, before defaults from the desired path.
 enum Terminal {
@@ -1346,8 +1398,10 @@ impl ProblemFile {
                 return Err(ConfigError::TerminalTime {
                     field: key.into(),
                     message: format!(
-                        "terminal time {b} must be greater than boundary.t0 = {t0}; \
-                         give a later time"
+                        "terminal time {} must be greater than boundary.t0 = {}; \
+                         give a later time",
+                        Num(b),
+                        Num(t0)
                     ),
                 });
             }
@@ -1449,14 +1503,33 @@ impl ProblemFile {
                     return Err(ConfigError::TerminalTime {
                         field: "boundary.terminal_time.guess".into(),
                         message: format!(
-                            "the default guess {guess} (the desired path's end time) is not \
-                             after boundary.t0 = {t0}; give guess = b > t0"
+                            "the default guess {} (the desired path's end time) is not \
+                             after boundary.t0 = {}; give guess = b > t0",
+                            Num(guess),
+                            Num(t0)
                         ),
                     });
                 }
                 TerminalTime::Free { guess }
             }
         };
+
+        let b = terminal.initial();
+        if b - t0 < TIME_SPAN_REL_MIN * t0.abs().max(b.abs()) {
+            return Err(ConfigError::OutOfRange {
+                field: "boundary.t0".into(),
+                value: Num(t0).to_string(),
+                requirement: format!(
+                    "the time span b - t0 = {} is below {TIME_SPAN_REL_MIN:e} of |t0| (b = {}): \
+                     times near t0 are rounded to ~{:.1e} in f64, too coarse for this span; \
+                     shift the time origin (t0 = 0, and the desired path's times with it)",
+                    Num(b - t0),
+                    Num(b),
+                    f64::EPSILON * t0.abs().max(b.abs())
+                ),
+            });
+        }
+        check_path_finite(&desired, t0, b)?;
 
         // Omega_b.
         let omega_b_spec = boundary.omega_b.ok_or_else(|| {
@@ -1542,10 +1615,11 @@ impl ProblemFile {
                 if b_d <= t0 {
                     return Err(ConfigError::OutOfRange {
                         field: "desired.b_d".into(),
-                        value: b_d.to_string(),
+                        value: Num(b_d).to_string(),
                         requirement: format!(
-                            "the switching time must be after boundary.t0 = {t0}; give a \
-                             later b_d"
+                            "the switching time must be after boundary.t0 = {}; give a \
+                             later b_d",
+                            Num(t0)
                         ),
                     });
                 }
@@ -1563,6 +1637,12 @@ impl ProblemFile {
                     start_hint: "the spiral starts on the ray of [c, t0 cos t0, t0 sin t0]; \
                                  with t0 = 0 any omega_a = [x, 0, 0] with x > 0 and c > 0",
                     end_time: Some(b_d),
+                    overflow: (
+                        "desired.width",
+                        "the sigmoid's derivatives grow like 1/width^3: give a larger width \
+                         (or smaller c, b_d)",
+                    ),
+                    special_times: vec![b_d],
                 })
             }
             "segment" => {
@@ -1611,7 +1691,7 @@ impl ProblemFile {
                 if a >= b {
                     return Err(ConfigError::OutOfRange {
                         field: "desired.interval".into(),
-                        value: format!("[{a}, {b}]"),
+                        value: format!("[{}, {}]", Num(a), Num(b)),
                         requirement: "needs start < end; give interval = [t_start, t_end]".into(),
                     });
                 }
@@ -1638,6 +1718,20 @@ impl ProblemFile {
                     start_hint: "set desired.from = omega_a (the default) and \
                                  desired.interval[0] = t0",
                     end_time: Some(b),
+                    overflow: if d.interval.is_some() {
+                        (
+                            "desired.interval",
+                            "its derivatives grow like 1/(t_end - t_start)^3: give a longer \
+                             interval",
+                        )
+                    } else {
+                        (
+                            "boundary.terminal_time",
+                            "the segment spans [t0, b] and its derivatives grow like \
+                             1/(b - t0)^3: give a later terminal time",
+                        )
+                    },
+                    special_times: vec![a, b],
                 })
             }
             "constant" => {
@@ -1655,6 +1749,8 @@ impl ProblemFile {
                     start_hint: "value = omega_a; or set cost.gamma = 0, then Omega_d is not \
                                  part of the cost",
                     end_time: None,
+                    overflow: ("desired.value", "give a smaller value"),
+                    special_times: vec![],
                 })
             }
             "samples" => {
@@ -1696,6 +1792,12 @@ impl ProblemFile {
                     start_hint: "the first sample, projected radially onto the energy \
                                  ellipsoid, must be omega_a",
                     end_time: Some(last),
+                    overflow: (
+                        "desired.file",
+                        "the spline's derivatives grow like (value change)/(t spacing)^3: \
+                         space the samples further apart or make them smaller",
+                    ),
+                    special_times: vec![first, last],
                 })
             }
             other => Err(ConfigError::Invalid {
@@ -1859,7 +1961,7 @@ fn problem_error(e: ProblemError) -> ConfigError {
             requirement,
         } => ConfigError::OutOfRange {
             field: path(field),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: requirement.to_string(),
         },
         ProblemError::OffEllipsoid {
@@ -1889,7 +1991,11 @@ fn problem_error(e: ProblemError) -> ConfigError {
         },
         ProblemError::EmptyInterval { t0, b } => ConfigError::TerminalTime {
             field: "boundary.terminal_time".into(),
-            message: format!("terminal time {b} must be greater than boundary.t0 = {t0}"),
+            message: format!(
+                "terminal time {} must be greater than boundary.t0 = {}",
+                Num(b),
+                Num(t0)
+            ),
         },
     }
 }

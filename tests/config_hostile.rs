@@ -570,3 +570,59 @@ fn a_segment_from_omega_a_to_itself_is_the_constant_path() {
     let (_, msg) = error(&format!("{SEGMENT}to = [-3.0, 0.0, 0.0]\n"), "desired.to");
     assert_contains(&msg, &["origin", "opposite"]);
 }
+
+#[test]
+fn huge_sample_values_never_suggest_nan() {
+    // Finite spline, huge values: only the directions matter after the projection.
+    let p = samples_problem("huge_ok", b"0,1e308,0,0\n10,1e308,1e308,0\n").unwrap();
+    let end = p.problem.omega_b;
+    assert!(
+        mismatch_of(&p) < 1e-14 && end.iter().all(|x| x.is_finite()),
+        "{end}"
+    );
+    // Differences that overflow: the spline cannot be built in f64.
+    let e =
+        samples_problem("huge_bad", b"0,1e308,0,0\n1,-1e308,1e308,0\n2,1e308,0,0\n").unwrap_err();
+    let (_, msg) = check_error(e, "desired.file");
+    assert_contains(&msg, &["overflows"]);
+}
+
+// ---------------------------------------------------------------------------------------
+// Defect 8 (found here): paths whose values or derivatives overflow, time spans below the
+// resolution of t0.
+
+#[test]
+fn a_desired_path_that_overflows_is_an_error_naming_its_keys() {
+    // A sigmoid far narrower than f64 can differentiate (1/w^3 overflows).
+    let (_, msg) = error(
+        &with_line(BASE, "width =", "width = 1e-300"),
+        "desired.width",
+    );
+    assert_contains(&msg, &["not finite", "t = "]);
+    // Samples 1e-300 apart: the spline's slope overflows.
+    let e = samples_problem("close", b"0,10,0,0\n1e-300,10,1,0\n1,10,0,1\n").unwrap_err();
+    let (_, msg) = check_error(e, "desired.file");
+    assert_contains(&msg, &["overflows"]);
+    // A segment interval of 1e-300: its slope overflows.
+    let (_, msg) = error(
+        &format!("{SEGMENT}interval = [0.0, 1e-300]\n"),
+        "desired.interval",
+    );
+    assert_contains(&msg, &["not finite"]);
+}
+
+#[test]
+fn a_time_span_below_the_resolution_of_t0_is_rejected() {
+    let doc = SEGMENT.replace(
+        "terminal_time = { fixed = 4.0 }",
+        "t0 = 1.7e9\nterminal_time = { fixed = 1700000004.0 }",
+    );
+    let (_, msg) = error(&doc, "boundary.t0");
+    assert_contains(&msg, &["time span b - t0 = 4", "shift the time origin"]);
+    // A million times the span is still resolved.
+    let doc = SEGMENT.replace(
+        "terminal_time = { fixed = 4.0 }",
+        "t0 = 4e6\nterminal_time = { fixed = 4000010.0 }",
+    );
+    config::from_toml_str(&doc).unwrap();
+}

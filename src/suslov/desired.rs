@@ -437,6 +437,22 @@ impl SampledPath {
             end.0[c] = y[n];
             end.1[c] = b + 2.0 * cc * hn + 3.0 * d * hn * hn;
         }
+        // Differences of huge values, or samples very close in time, overflow f64.
+        let bad = coeffs
+            .iter()
+            .position(|c| c.iter().flatten().any(|x| !x.is_finite()))
+            .or_else(|| (end.0.iter().chain(&end.1).any(|x| !x.is_finite())).then_some(n - 1));
+        if let Some(k) = bad {
+            return invalid(format!(
+                "the cubic spline through the samples overflows f64 between sample {k} (t = \
+                 {:e}) and sample {} (t = {:e}): the values are too large or too close in \
+                 time; rescale them (only their directions matter after the projection) or \
+                 space them further apart",
+                times[k],
+                k + 1,
+                times[k + 1]
+            ));
+        }
         Ok(Self {
             knots: times.to_vec(),
             coeffs,
