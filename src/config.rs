@@ -369,6 +369,69 @@ pub struct LoadedProblem {
     pub problem: SuslovProblem,
     /// Solver options.
     pub options: SolveOptions,
+    /// What was accepted but deserves a word (the problem is solved as given).
+    pub warnings: Vec<ConfigWarning>,
+}
+
+/// Something in a valid problem file that is probably not what was meant; the problem is
+/// solved as given.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ConfigWarning {
+    /// One principal moment exceeds the sum of the other two. Every rigid body has
+    /// `I_i ≤ I_j + I_k` (`I_i + I_j − I_k = 2∫ρ x_k² ≥ 0`; equality: a flat body), so no
+    /// body has these moments; Suslov's equations and the optimal control problem are still
+    /// well defined for any positive moments.
+    TriangleInequality {
+        /// `[I1, I2, I3]`.
+        inertia: [f64; 3],
+        /// The moment that is too large (0-based).
+        axis: usize,
+    },
+}
+
+impl ConfigWarning {
+    /// The TOML path of the key the warning is about.
+    pub fn field(&self) -> &'static str {
+        match self {
+            ConfigWarning::TriangleInequality { .. } => "body.inertia",
+        }
+    }
+}
+
+impl fmt::Display for ConfigWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigWarning::TriangleInequality { inertia, axis } => {
+                let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
+                write!(
+                    f,
+                    "`{}` = [{}, {}, {}]: I{} = {} exceeds I{} + I{} = {}, which no rigid body \
+                     has (principal moments satisfy the triangle inequality; equality is a \
+                     flat body); the problem is solved as given",
+                    self.field(),
+                    Num(inertia[0]),
+                    Num(inertia[1]),
+                    Num(inertia[2]),
+                    axis + 1,
+                    Num(inertia[*axis]),
+                    j.min(k) + 1,
+                    j.max(k) + 1,
+                    Num(inertia[j] + inertia[k])
+                )
+            }
+        }
+    }
+}
+
+/// [`ConfigWarning::TriangleInequality`] if a moment exceeds the sum of the others by more
+/// than rounding (so that flat bodies, e.g. the paper's `diag(1, 2, 3)`, pass).
+fn triangle_warning(inertia: [f64; 3]) -> Option<ConfigWarning> {
+    (0..3)
+        .find(|&i| {
+            let others = inertia[(i + 1) % 3] + inertia[(i + 2) % 3];
+            inertia[i] > others * (1.0 + 4.0 * f64::EPSILON)
+        })
+        .map(|axis| ConfigWarning::TriangleInequality { inertia, axis })
 }
 
 /// What is wrong with a problem file. Every variant but [`ConfigError::Read`] names a field
@@ -1583,10 +1646,14 @@ impl ProblemFile {
             desired: desired.path,
         };
         problem.validate().map_err(problem_error)?;
+        let warnings = triangle_warning(problem.inertia.diag().into())
+            .into_iter()
+            .collect();
         Ok(LoadedProblem {
             name,
             problem,
             options,
+            warnings,
         })
     }
 

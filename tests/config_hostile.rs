@@ -626,3 +626,41 @@ fn a_time_span_below_the_resolution_of_t0_is_rejected() {
     );
     config::from_toml_str(&doc).unwrap();
 }
+
+// ---------------------------------------------------------------------------------------
+// Defect 6: moments of inertia no rigid body has are accepted with a warning.
+
+#[test]
+fn inertias_that_violate_the_triangle_inequality_give_a_warning() {
+    let p = config::from_toml_str(&with_line(BASE, "inertia =", "inertia = [1, 1, 5]")).unwrap();
+    assert_eq!(
+        p.warnings,
+        vec![config::ConfigWarning::TriangleInequality {
+            inertia: [1.0, 1.0, 5.0],
+            axis: 2
+        }]
+    );
+    let w = p.warnings[0].to_string();
+    assert_eq!(p.warnings[0].field(), "body.inertia");
+    assert_contains(
+        &w,
+        &[
+            "`body.inertia`",
+            "I3 = 5 exceeds I1 + I2 = 2",
+            "no rigid body",
+        ],
+    );
+    let p = config::from_toml_str(&with_line(BASE, "inertia =", "inertia = [7, 2, 3]")).unwrap();
+    assert_contains(&p.warnings[0].to_string(), &["I1 = 7 exceeds I2 + I3 = 5"]);
+    // Flat bodies (equality, also after rounding) and ordinary ones: no warning.
+    for ok in [
+        "[1, 2, 3]",
+        "[0.1, 0.2, 0.3]",
+        "[0.3, 0.1, 0.2]",
+        "[2, 3, 4]",
+    ] {
+        let p = config::from_toml_str(&with_line(BASE, "inertia =", &format!("inertia = {ok}")))
+            .unwrap();
+        assert!(p.warnings.is_empty(), "{ok}: {:?}", p.warnings);
+    }
+}
