@@ -1068,27 +1068,30 @@ const PATH_CHECK_POINTS: usize = 1025;
 /// apart or a segment over `1e-300` time units give infinities, which the solver would only
 /// report later as an unrelated failure ("Property 3 fails"). Checked at `t0`, `b`, the
 /// path's end time and special times, and on a uniform grid.
-fn check_path_finite(desired: &Desired, t0: f64, b: f64) -> Result<(), ConfigError> {
+fn check_path_finite(
+    path: &dyn DesiredPath,
+    what: &str,
+    (t0, b): (f64, f64),
+    special_times: &[f64],
+    (field, fix): (&str, &str),
+) -> Result<(), ConfigError> {
     let grid =
         (0..PATH_CHECK_POINTS).map(|k| t0 + (b - t0) * k as f64 / (PATH_CHECK_POINTS - 1) as f64);
     let times = [t0, b]
         .into_iter()
-        .chain(desired.end_time)
-        .chain(desired.special_times.iter().copied())
+        .chain(special_times.iter().copied())
         .chain(grid);
     for t in times {
-        let jet = desired.path.jet(t);
+        let jet = path.jet(t);
         let finite = [jet.value, jet.d1, jet.d2, jet.d3]
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()));
         if !finite {
-            let (field, fix) = desired.overflow;
             return Err(ConfigError::Invalid {
                 field: field.into(),
                 message: format!(
-                    "the desired path ([desired] kind = \"{}\") or one of its first three \
-                     time derivatives is not finite at t = {} (it overflows f64); {fix}",
-                    desired.kind,
+                    "{what} or one of its first three time derivatives is not finite at t = {} \
+                     (it overflows f64); {fix}",
                     Num(t)
                 ),
             });
@@ -1592,7 +1595,13 @@ impl ProblemFile {
                 ),
             });
         }
-        check_path_finite(&desired, t0, b)?;
+        check_path_finite(
+            &*desired.path,
+            &format!("the desired path ([desired] kind = \"{}\")", desired.kind),
+            (t0, b),
+            &desired.special_times,
+            desired.overflow,
+        )?;
 
         // Omega_b.
         let omega_b_spec = boundary.omega_b.ok_or_else(|| {
@@ -1611,6 +1620,23 @@ impl ProblemFile {
             OmegaBSpec::Vector(_) => "boundary.omega_b",
         };
         let omega_b = onto_ellipsoid(field, &ellipsoid, &omega_b)?;
+
+        // The solver's fallback start (gamma = 0, start = "segment", or a desired path that
+        // violates Property 1 or 3) is the projected segment omega_a -> omega_b on [t0, b]:
+        // it must be finite too (a tiny b - t0 overflows its derivatives).
+        if let Ok(segment) = ProjectedSegment::new(inertia, omega_a, omega_b, t0, b) {
+            check_path_finite(
+                &segment,
+                "the solver's start path (the projected segment from omega_a to omega_b over \
+                 [t0, b])",
+                (t0, b),
+                &[],
+                (
+                    "boundary.terminal_time",
+                    "its derivatives grow like 1/(b - t0)^3: give a later terminal time",
+                ),
+            )?;
+        }
 
         // The desired path starts at Omega_a.
         if gamma > 0.0 {

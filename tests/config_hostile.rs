@@ -664,3 +664,29 @@ fn inertias_that_violate_the_triangle_inequality_give_a_warning() {
         assert!(p.warnings.is_empty(), "{ok}: {:?}", p.warnings);
     }
 }
+
+#[test]
+fn a_span_too_short_for_the_solvers_start_path_is_rejected() {
+    // A constant desired path is finite at any span, but the solver starts from the
+    // projected segment omega_a -> omega_b over [t0, b] (it used to fail later with "the
+    // singular control xi_p is undefined at t = 0 (Property 3 fails there)").
+    let doc = SEGMENT
+        .replace(
+            "terminal_time = { fixed = 4.0 }",
+            "terminal_time = { fixed = 1e-300 }",
+        )
+        .replace("gamma = 1.0", "gamma = 0.0")
+        .replace(
+            "kind = \"segment\"",
+            "kind = \"constant\"\nvalue = [3.0, 0.0, 0.0]",
+        );
+    let (_, msg) = error(&doc, "boundary.terminal_time");
+    assert_contains(
+        &msg,
+        &[
+            "the solver's start path",
+            "not finite",
+            "later terminal time",
+        ],
+    );
+}
