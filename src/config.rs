@@ -1402,9 +1402,9 @@ impl ProblemFile {
             EnergyEllipsoid::through(inertia, &omega_a).map_err(|_| ConfigError::Invalid {
                 field: "boundary.omega_a".into(),
                 message: format!(
-                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a positive \
-                     finite number in f64 (over- or underflow); rescale omega_a or \
-                     body.inertia",
+                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a normal \
+                     positive f64 (overflow, or below 2.2e-308: too few significant bits); \
+                     rescale omega_a or body.inertia",
                     inertia.apply(&omega_a).dot(&omega_a)
                 ),
             })?;
@@ -2078,8 +2078,8 @@ fn problem_error(e: ProblemError) -> ConfigError {
         ProblemError::EnergyOutOfRange { level } => ConfigError::Invalid {
             field: "boundary.omega_a".into(),
             message: format!(
-                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a positive \
-                 finite number in f64; rescale omega_a or body.inertia"
+                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a normal \
+                 positive f64; rescale omega_a or body.inertia"
             ),
         },
         ProblemError::EmptyInterval { t0, b } => ConfigError::TerminalTime {

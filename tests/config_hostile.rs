@@ -690,3 +690,23 @@ fn a_span_too_short_for_the_solvers_start_path_is_rejected() {
         ],
     );
 }
+
+#[test]
+fn an_energy_level_in_the_subnormal_range_is_rejected() {
+    // <omega_a, I omega_a> = 1e-320 has ~4 significant bits: the on-ellipsoid check would
+    // accept a 2e-4 mismatch.
+    let doc = SEGMENT
+        .replace("omega_a = [3.0, 0.0, 0.0]", "omega_a = [1e-160, 0.0, 0.0]")
+        .replace(
+            "omega_b = [1.0, 2.0, 0.0]",
+            "omega_b = [1.0001e-160, 0.0, 0.0]",
+        );
+    let (_, msg) = error(&doc, "boundary.omega_a");
+    assert_contains(&msg, &["kinetic energy", "rescale"]);
+    let mut p = suslov::suslov::paper::problem(1.0);
+    p.omega_a = nalgebra::Vector3::new(1e-160, 0.0, 0.0);
+    assert!(matches!(
+        p.validate(),
+        Err(suslov::suslov::problem::ProblemError::EnergyOutOfRange { .. })
+    ));
+}

@@ -78,10 +78,12 @@ pub struct EnergyEllipsoid {
 }
 
 impl EnergyEllipsoid {
-    /// The ellipsoid through `omega_a`; `omega_a` must be finite and non-zero.
+    /// The ellipsoid through `omega_a`; `omega_a` must be finite and non-zero, and its level
+    /// `⟨Ω_a, IΩ_a⟩` a normal `f64` (neither overflowing nor in the subnormal range, where it
+    /// has too few significant bits for the relative energy checks).
     pub fn through(inertia: Inertia, omega_a: &Vector3<f64>) -> Result<Self, SuslovError> {
         let level = inertia.apply(omega_a).dot(omega_a);
-        if !(level.is_finite() && level > 0.0) {
+        if !is_normal_positive(level) {
             return Err(SuslovError::InvalidInput {
                 what: format!(
                     "Omega_a = {:?} must be finite and non-zero to define an energy ellipsoid",

@@ -150,10 +150,12 @@ pub enum ProblemError {
     /// `Ω_a = 0`: the ellipsoid degenerates.
     #[error("omega_a must be nonzero (it fixes the kinetic energy of the motion)")]
     ZeroOmegaA,
-    /// `⟨Ω_a, IΩ_a⟩` overflows or underflows `f64` (the ellipsoid is not representable).
+    /// `⟨Ω_a, IΩ_a⟩` overflows `f64` or falls below its normal range (the ellipsoid is not
+    /// representable to full precision).
     #[error(
-        "omega_a's kinetic energy level <omega_a, I omega_a> = {level:e} is not a positive \
-         finite f64 (over- or underflow); rescale omega_a or the inertia"
+        "omega_a's kinetic energy level <omega_a, I omega_a> = {level:e} is not a normal \
+         positive f64 (overflow, or below 2.2e-308: too few significant bits); rescale \
+         omega_a or the inertia"
     )]
     EnergyOutOfRange {
         /// `⟨Ω_a, IΩ_a⟩` as computed.
@@ -230,7 +232,7 @@ impl SuslovProblem {
             return Err(ProblemError::ZeroOmegaA);
         }
         let level = self.inertia.apply(&self.omega_a).dot(&self.omega_a);
-        if !(level.is_finite() && level > 0.0) {
+        if !(level.is_finite() && level >= f64::MIN_POSITIVE) {
             return Err(ProblemError::EnergyOutOfRange { level });
         }
         let b = self.terminal.initial();
