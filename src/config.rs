@@ -1655,7 +1655,7 @@ impl ProblemFile {
             }
         }
 
-        let options = self.solve_options(beta)?;
+        let options = self.solve_options(beta, gamma)?;
         let problem = SuslovProblem {
             inertia,
             weights: CostWeights {
@@ -1900,8 +1900,9 @@ impl ProblemFile {
         }
     }
 
-    /// `[solver]`, checked against the caps and ranges above; `beta` is `cost.beta`.
-    fn solve_options(&self, beta: f64) -> Result<SolveOptions, ConfigError> {
+    /// `[solver]`, checked against the caps and ranges above; `beta` and `gamma` are the
+    /// cost weights.
+    fn solve_options(&self, beta: f64, gamma: f64) -> Result<SolveOptions, ConfigError> {
         let mut o = SolveOptions::default();
         let Some(s) = &self.solver else {
             return Ok(o);
@@ -2010,6 +2011,20 @@ impl ProblemFile {
                     })
                 }
             };
+            let from_desired = matches!(
+                o.start,
+                StartStrategy::Desired | StartStrategy::DesiredGammaFromZero
+            );
+            if from_desired && gamma == 0.0 {
+                return Err(ConfigError::Invalid {
+                    field: "solver.start".into(),
+                    message: format!(
+                        "start = {start:?} starts from the desired path, which is not part of \
+                         the cost with cost.gamma = 0; use \"auto\" or \"segment\", or a \
+                         gamma > 0"
+                    ),
+                });
+            }
         }
         if o.max_nodes <= o.initial_intervals {
             // Only reachable with both keys given (the default max_nodes exceeds the cap on

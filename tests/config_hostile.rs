@@ -710,3 +710,15 @@ fn an_energy_level_in_the_subnormal_range_is_rejected() {
         Err(suslov::suslov::problem::ProblemError::EnergyOutOfRange { .. })
     ));
 }
+
+#[test]
+fn a_start_from_the_desired_path_needs_gamma() {
+    // The solver used to refuse this only once solving began.
+    let doc = format!(
+        "{}[solver]\nstart = \"desired\"\n",
+        SEGMENT.replace("gamma = 1.0", "gamma = 0.0")
+    );
+    let (_, msg) = error(&doc, "solver.start");
+    assert_contains(&msg, &["cost.gamma = 0", "\"segment\""]);
+    config::from_toml_str(&doc.replace("\"desired\"", "\"segment\"")).unwrap();
+}
