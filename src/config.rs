@@ -60,11 +60,26 @@
 //! (`b_d`, or `interval[1]`) when it has one.
 //!
 //! Checks beyond the types: no NaN or infinity anywhere (TOML has `nan` and `inf` literals);
-//! `Ω_b` on `Ω_a`'s energy ellipsoid (relative energy mismatch ≤
-//! [`ENERGY_REL_TOL`], Suslov's equations conserve
-//! it); when `γ > 0`, the desired path starts at `Ω_a`: `|Ω_d(t0) − Ω_a| ≤`
-//! [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is not part of the cost and is
-//! not checked).
+//! every array has exactly its number of entries ([`Numbers`]; never truncated); `Ω_b` on
+//! `Ω_a`'s energy ellipsoid (relative energy mismatch ≤ [`ENERGY_REL_TOL`], Suslov's
+//! equations conserve it; within that, every such vector is projected onto the ellipsoid,
+//! so no later check is stricter than this one); when `γ > 0`, the desired path starts at
+//! `Ω_a`: `|Ω_d(t0) − Ω_a| ≤` [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is
+//! not part of the cost and is not checked); the desired path and the solver's fallback
+//! start path are finite with three derivatives on `[t0, b]`; `b − t0` is resolved by `f64`
+//! times near `t0` ([`TIME_SPAN_REL_MIN`]); solver options lie in documented ranges
+//! ([`TOLERANCE_RANGE`], [`CONTINUATION_TOLERANCE_RANGE`], [`BETA_M_MIN_RATIO`]).
+//!
+//! # Bounded resources
+//!
+//! Every input is capped before the work it would cause: the problem file
+//! ([`MAX_PROBLEM_FILE_BYTES`], read with at most that many bytes plus one, regular files
+//! only: `/dev/zero` or a FIFO is an error, not a hang), the case name ([`MAX_NAME_CHARS`]),
+//! the samples file ([`MAX_SAMPLES_FILE_BYTES`], [`MAX_SAMPLE_ROWS`]) and the meshes
+//! ([`MAX_INITIAL_INTERVALS`], [`MAX_NODES`], from the measured [`MEMORY_PER_NODE_BYTES`]).
+//! Messages quote at most [`MAX_ECHO_CHARS`] characters of any piece of input.
+//!
+//! Accepted oddities are reported as [`ConfigWarning`]s in [`LoadedProblem::warnings`].
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -434,8 +449,10 @@ fn triangle_warning(inertia: [f64; 3]) -> Option<ConfigWarning> {
         .map(|axis| ConfigWarning::TriangleInequality { inertia, axis })
 }
 
-/// What is wrong with a problem file. Every variant but [`ConfigError::Read`] names a field
-/// ([`ConfigError::field`]) by its TOML path.
+/// What is wrong with a problem file. Every variant names a field ([`ConfigError::field`])
+/// by its TOML path, except those about the file as a whole ([`ConfigError::Read`],
+/// [`ConfigError::File`] unless the invalid UTF-8 is inside a key, [`ConfigError::TooLarge`])
+/// and TOML syntax errors outside any key (which give the line and column).
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// The file could not be read.
@@ -681,7 +698,7 @@ pub enum FileProblem {
 }
 
 fn mebibytes(bytes: u64) -> String {
-    if bytes % (1 << 20) == 0 {
+    if bytes.is_multiple_of(1 << 20) {
         format!("{} MiB", bytes >> 20)
     } else {
         format!("{bytes} bytes")

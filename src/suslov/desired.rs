@@ -329,7 +329,7 @@ impl ProjectedSegment {
             0.0
         };
         let closest = (a_s + d * along).norm();
-        if !(closest > 1e-8 * a_s.norm()) {
+        if closest <= 1e-8 * a_s.norm() {
             return Err(SuslovError::SegmentThroughOrigin {
                 closest: closest * scale,
                 size: omega_a.norm(),
