@@ -750,12 +750,18 @@ fn decode(bytes: Vec<u8>, toml: bool) -> Result<String, FileProblem> {
         Err(e) => {
             let at = e.utf8_error().valid_up_to();
             let bytes = e.into_bytes();
-            let valid = std::str::from_utf8(&bytes[..at]).unwrap_or_default();
+            // Positions after a byte order mark, as the parser would see them.
+            let skip = if bytes.starts_with("\u{feff}".as_bytes()) {
+                BOM.len_utf8()
+            } else {
+                0
+            };
+            let valid = std::str::from_utf8(&bytes[skip..at]).unwrap_or_default();
             let line = valid.matches('\n').count() + 1;
             let column = valid.rsplit('\n').next().unwrap_or("").chars().count() + 1;
             let field = if toml {
-                let lossy = String::from_utf8_lossy(&bytes);
-                field_at(lossy.strip_prefix(BOM).unwrap_or(&lossy), at).map(|f| clip(&f))
+                let lossy = String::from_utf8_lossy(&bytes[skip..]);
+                field_at(&lossy, at - skip).map(|f| clip_to(&f, MAX_ECHO_CHARS / 2))
             } else {
                 None
             };

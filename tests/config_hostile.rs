@@ -352,7 +352,17 @@ fn a_problem_file_that_is_not_utf8_names_the_line() {
     std::fs::write(&path, &bytes).unwrap();
     let e = config::load(&path).unwrap_err();
     let (_, msg) = check_error(e, "cost.beta");
-    assert_contains(&msg, &["not valid UTF-8", "line 15"]);
+    assert_contains(&msg, &["not valid UTF-8", "line 15, column 8"]);
+    // After a byte order mark, columns count from the first character after it.
+    let mut with_bom = "\u{feff}alpha = 1".as_bytes().to_vec();
+    with_bom.extend_from_slice(&[0xff, b'\n']);
+    std::fs::write(&path, &with_bom).unwrap();
+    let e = config::load(&path).unwrap_err();
+    let msg = e.to_string();
+    assert_contains(
+        &msg,
+        &["not valid UTF-8", "line 1, column 10", "(in `alpha`)"],
+    );
 }
 
 // ---------------------------------------------------------------------------------------
