@@ -60,11 +60,26 @@
 //! (`b_d`, or `interval[1]`) when it has one.
 //!
 //! Checks beyond the types: no NaN or infinity anywhere (TOML has `nan` and `inf` literals);
-//! `Ω_b` on `Ω_a`'s energy ellipsoid (relative energy mismatch ≤
-//! [`ENERGY_REL_TOL`], Suslov's equations conserve
-//! it); when `γ > 0`, the desired path starts at `Ω_a`: `|Ω_d(t0) − Ω_a| ≤`
-//! [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is not part of the cost and is
-//! not checked).
+//! every array has exactly its number of entries ([`Numbers`]; never truncated); `Ω_b` on
+//! `Ω_a`'s energy ellipsoid (relative energy mismatch ≤ [`ENERGY_REL_TOL`], Suslov's
+//! equations conserve it; within that, every such vector is projected onto the ellipsoid,
+//! so no later check is stricter than this one); when `γ > 0`, the desired path starts at
+//! `Ω_a`: `|Ω_d(t0) − Ω_a| ≤` [`DESIRED_START_REL_TOL`]` · |Ω_a|` (with `γ = 0`, `Ω_d` is
+//! not part of the cost and is not checked); the desired path and the solver's fallback
+//! start path are finite with three derivatives on `[t0, b]`; `b − t0` is resolved by `f64`
+//! times near `t0` ([`TIME_SPAN_REL_MIN`]); solver options lie in documented ranges
+//! ([`TOLERANCE_RANGE`], [`CONTINUATION_TOLERANCE_RANGE`], [`BETA_M_MIN_RATIO`]).
+//!
+//! # Bounded resources
+//!
+//! Every input is capped before the work it would cause: the problem file
+//! ([`MAX_PROBLEM_FILE_BYTES`], read with at most that many bytes plus one, regular files
+//! only: `/dev/zero` or a FIFO is an error, not a hang), the case name ([`MAX_NAME_CHARS`]),
+//! the samples file ([`MAX_SAMPLES_FILE_BYTES`], [`MAX_SAMPLE_ROWS`]) and the meshes
+//! ([`MAX_INITIAL_INTERVALS`], [`MAX_NODES`], from the measured [`MEMORY_PER_NODE_BYTES`]).
+//! Messages quote at most [`MAX_ECHO_CHARS`] characters of any piece of input.
+//!
+//! Accepted oddities are reported as [`ConfigWarning`]s in [`LoadedProblem::warnings`].
 
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -82,9 +97,68 @@ use crate::suslov::problem::{
     CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
 };
 use crate::suslov::solve::{SolveOptions, StartStrategy};
+use crate::suslov::SuslovError;
 
 /// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
 pub const DESIRED_START_REL_TOL: f64 = 1e-6;
+
+/// Largest problem file read, in bytes (1 MiB). A problem file is well under 1 kB; the cap
+/// leaves room for any amount of comments while bounding what the `toml` crate holds in
+/// memory and parses (a file is read with at most this many bytes plus one, so a larger or
+/// growing file costs no more).
+pub const MAX_PROBLEM_FILE_BYTES: u64 = 1 << 20;
+
+/// Longest case name, in characters. The name labels `summary.json` and every figure title
+/// (rasterised text: a 100 kB name took 8 s per figure).
+pub const MAX_NAME_CHARS: usize = 200;
+
+/// Largest samples file (`desired.file`), in bytes (64 MiB), read with a bounded reader.
+pub const MAX_SAMPLES_FILE_BYTES: u64 = 64 << 20;
+
+/// Most rows of a samples file. The spline holds ~130 bytes per row and building it ~200
+/// (a million rows: ~200 MB), and a BVP mesh of at most [`MAX_NODES`] nodes cannot resolve
+/// more detail than that many samples carry anyway.
+pub const MAX_SAMPLE_ROWS: usize = 1_000_000;
+
+/// Memory of one BVP mesh node, measured: peak RSS of `suslov solve examples/segment.toml`
+/// with `initial_intervals` = 1000, 4000, 16000, 32000 grows by 45.7 kB per interval
+/// (58 MB, 215 MB, 736 MB, 1.47 GB; release build). The tester's `initial_intervals = 1e5`
+/// took 4.5 GB and 74 s, `3e5` aborted with "memory allocation failed".
+pub const MEMORY_PER_NODE_BYTES: u64 = 46_000;
+
+/// Cap on `solver.max_nodes`: ~2.3 GB at [`MEMORY_PER_NODE_BYTES`], which a common machine
+/// has; the examples converge with a few hundred nodes, the default cap is 20000.
+pub const MAX_NODES: usize = 50_000;
+
+/// Cap on `solver.initial_intervals`: ~0.5 GB and ~5 s for the first solve (measured at
+/// 16000: 7.6 s in all); it stays below the default `max_nodes` (20000), so a capped value
+/// never needs `max_nodes` too. The default is 100.
+pub const MAX_INITIAL_INTERVALS: usize = 10_000;
+
+/// Allowed `solver.tolerance`. The BVP solver's `tol` is both the relative and the absolute
+/// tolerance of a per-interval error estimate (`h |residual|` against `tol (1 + |y|)`,
+/// [`crate::bvp::Options`]), and Newton stops at 1e-2 of that. Below 1e-12 this asks for
+/// corrections at the round-off of the collocation system: measured, 1e-13 failed on the
+/// paper's η = 1 and the segment example (Newton or mesh passes exhausted), 1e-12 converged
+/// on 2 of 4 examples, 1e-11 on all. Above 1e-3 the estimate stops being an error bound on
+/// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); the paper uses 1e-8.
+pub const TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-3);
+
+/// Allowed `solver.continuation_tolerance`: the same floor as [`TOLERANCE_RANGE`]; the
+/// continuation only has to follow the path, but at 1e-1 the paper's analytic start already
+/// failed to converge (measured), while 1e-2 gave the same `b` to 1e-10. Default 1e-4.
+pub const CONTINUATION_TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-2);
+
+/// `solver.beta_m` must lie in `[BETA_M_MIN_RATIO · β, β]`. The analytic start is the
+/// singular (`β → 0`) solution solved at `β = β_m`, then continued `β_m → β`
+/// (`suslov::solve`), so `β_m > β` defeats it (measured on the paper's η = 1: `β_m` = 1 and
+/// 10 with `β` = 0.1 did not converge); `β_m` = `β` skips the β stage. Far below `β` the
+/// start's system becomes singular (measured: from `β_m` = 1e-5 `β` on); the floor only
+/// rejects values no start can use.
+pub const BETA_M_MIN_RATIO: f64 = 1e-8;
+
+/// Longest piece of input echoed in a message (characters; longer ones end in `…`).
+pub const MAX_ECHO_CHARS: usize = 200;
 
 /// The parsed file, before any check beyond the TOML types. Every field is optional here so
 /// that a missing one is reported with its full path by [`ProblemFile::build`].
@@ -110,7 +184,7 @@ pub struct ProblemFile {
 #[serde(deny_unknown_fields)]
 pub struct BodySection {
     /// Principal moments of inertia.
-    pub inertia: Option<[f64; 3]>,
+    pub inertia: Option<Numbers<3>>,
 }
 
 /// `[boundary]`.
@@ -120,7 +194,7 @@ pub struct BoundarySection {
     /// Initial time (default 0).
     pub t0: Option<f64>,
     /// `Ω(t0)`.
-    pub omega_a: Option<[f64; 3]>,
+    pub omega_a: Option<Numbers<3>>,
     /// `Ω(b)`.
     pub omega_b: Option<OmegaBSpec>,
     /// Fixed or free terminal time.
@@ -132,8 +206,8 @@ pub struct BoundarySection {
 pub enum OmegaBSpec {
     /// The desired path's end point.
     DesiredEnd,
-    /// An explicit vector.
-    Vector([f64; 3]),
+    /// An explicit vector (as written: its length is checked in [`ProblemFile::build`]).
+    Vector(Numbers<3>),
 }
 
 impl<'de> Deserialize<'de> for OmegaBSpec {
@@ -152,13 +226,84 @@ impl<'de> Deserialize<'de> for OmegaBSpec {
                 }
             }
             fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<OmegaBSpec, A::Error> {
-                <[f64; 3]>::deserialize(de::value::SeqAccessDeserializer::new(seq))
-                    .map(OmegaBSpec::Vector)
+                read_numbers(seq).map(OmegaBSpec::Vector)
             }
         }
         d.deserialize_any(V)
     }
 }
+
+/// A TOML array meant to hold exactly `N` numbers, as written in the file. Reading it never
+/// fails on the length (only on an entry's type): a wrong length is kept as
+/// [`Numbers::WrongLength`] and turned into [`ConfigError::Length`], which names the key, by
+/// [`ProblemFile::build`]. Every vector key (and the vector form of `boundary.omega_b`) is
+/// read this way, so no array is ever truncated, padded or partly ignored.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Numbers<const N: usize> {
+    /// Exactly `N` numbers.
+    Exact([f64; N]),
+    /// Any other number of entries (of any type beyond the first `N`): how many.
+    WrongLength(usize),
+}
+
+impl<'de, const N: usize> Deserialize<'de> for Numbers<N> {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        struct V<const N: usize>;
+        impl<'de, const N: usize> Visitor<'de> for V<N> {
+            type Value = Numbers<N>;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                write!(f, "an array of {N} numbers")
+            }
+            fn visit_seq<A: SeqAccess<'de>>(self, seq: A) -> Result<Numbers<N>, A::Error> {
+                read_numbers(seq)
+            }
+        }
+        d.deserialize_seq(V::<N>)
+    }
+}
+
+/// Reads up to `N` numbers, then counts (without converting) whatever else the array holds.
+fn read_numbers<'de, A: SeqAccess<'de>, const N: usize>(
+    mut seq: A,
+) -> Result<Numbers<N>, A::Error> {
+    let mut out = [0.0; N];
+    for (n, slot) in out.iter_mut().enumerate() {
+        match seq.next_element::<f64>()? {
+            Some(x) => *slot = x,
+            None => return Ok(Numbers::WrongLength(n)),
+        }
+    }
+    let mut extra = 0usize;
+    while seq.next_element::<de::IgnoredAny>()?.is_some() {
+        extra += 1;
+    }
+    Ok(if extra == 0 {
+        Numbers::Exact(out)
+    } else {
+        Numbers::WrongLength(N + extra)
+    })
+}
+
+/// The numbers of a vector key, or [`ConfigError::Length`] naming it; `meaning` names the
+/// entries (e.g. `"I1, I2, I3"`).
+fn exact<const N: usize>(
+    field: &str,
+    v: Numbers<N>,
+    meaning: &'static str,
+) -> Result<[f64; N], ConfigError> {
+    match v {
+        Numbers::Exact(x) => Ok(x),
+        Numbers::WrongLength(found) => Err(ConfigError::Length {
+            field: field.to_string(),
+            found,
+            expected: N,
+            meaning,
+        }),
+    }
+}
+
+/// What the entries of a 3-vector key are.
+const XYZ: &str = "x, y, z";
 
 /// `boundary.terminal_time`: `{ fixed = b }` or `{ free = true, guess = b }`.
 #[derive(Debug, Clone, Default, Deserialize)]
@@ -201,13 +346,13 @@ pub struct DesiredSection {
     /// paper-spiral: switching time (default 10).
     pub b_d: Option<f64>,
     /// constant: the value.
-    pub value: Option<[f64; 3]>,
+    pub value: Option<Numbers<3>>,
     /// segment: start point (default `boundary.omega_a`).
-    pub from: Option<[f64; 3]>,
+    pub from: Option<Numbers<3>>,
     /// segment: end point (default `boundary.omega_b`).
-    pub to: Option<[f64; 3]>,
+    pub to: Option<Numbers<3>>,
     /// segment: `[start time, end time]` (default `[t0, terminal time]`).
-    pub interval: Option<[f64; 2]>,
+    pub interval: Option<Numbers<2>>,
     /// samples: the CSV file (relative to the problem file).
     pub file: Option<String>,
 }
@@ -239,22 +384,112 @@ pub struct LoadedProblem {
     pub problem: SuslovProblem,
     /// Solver options.
     pub options: SolveOptions,
+    /// What was accepted but deserves a word (the problem is solved as given).
+    pub warnings: Vec<ConfigWarning>,
 }
 
-/// What is wrong with a problem file. Every variant but [`ConfigError::Read`] names a field
-/// ([`ConfigError::field`]) by its TOML path.
+/// Something in a valid problem file that is probably not what was meant; the problem is
+/// solved as given.
+#[derive(Debug, Clone, PartialEq)]
+pub enum ConfigWarning {
+    /// One principal moment exceeds the sum of the other two. Every rigid body has
+    /// `I_i ≤ I_j + I_k` (`I_i + I_j − I_k = 2∫ρ x_k² ≥ 0`; equality: a flat body), so no
+    /// body has these moments; Suslov's equations and the optimal control problem are still
+    /// well defined for any positive moments.
+    TriangleInequality {
+        /// `[I1, I2, I3]`.
+        inertia: [f64; 3],
+        /// The moment that is too large (0-based).
+        axis: usize,
+    },
+}
+
+impl ConfigWarning {
+    /// The TOML path of the key the warning is about.
+    pub fn field(&self) -> &'static str {
+        match self {
+            ConfigWarning::TriangleInequality { .. } => "body.inertia",
+        }
+    }
+}
+
+impl fmt::Display for ConfigWarning {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ConfigWarning::TriangleInequality { inertia, axis } => {
+                let (j, k) = ((axis + 1) % 3, (axis + 2) % 3);
+                write!(
+                    f,
+                    "`{}` = [{}, {}, {}]: I{} = {} exceeds I{} + I{} = {}, which no rigid body \
+                     has (principal moments satisfy the triangle inequality; equality is a \
+                     flat body); the problem is solved as given",
+                    self.field(),
+                    Num(inertia[0]),
+                    Num(inertia[1]),
+                    Num(inertia[2]),
+                    axis + 1,
+                    Num(inertia[*axis]),
+                    j.min(k) + 1,
+                    j.max(k) + 1,
+                    Num(inertia[j] + inertia[k])
+                )
+            }
+        }
+    }
+}
+
+/// [`ConfigWarning::TriangleInequality`] if a moment exceeds the sum of the others by more
+/// than rounding (so that flat bodies, e.g. the paper's `diag(1, 2, 3)`, pass).
+fn triangle_warning(inertia: [f64; 3]) -> Option<ConfigWarning> {
+    (0..3)
+        .find(|&i| {
+            let others = inertia[(i + 1) % 3] + inertia[(i + 2) % 3];
+            inertia[i] > others * (1.0 + 4.0 * f64::EPSILON)
+        })
+        .map(|axis| ConfigWarning::TriangleInequality { inertia, axis })
+}
+
+/// What is wrong with a problem file. Every variant names a field ([`ConfigError::field`])
+/// by its TOML path, except those about the file as a whole ([`ConfigError::Read`],
+/// [`ConfigError::File`] unless the invalid UTF-8 is inside a key, [`ConfigError::TooLarge`])
+/// and TOML syntax errors outside any key (which give the line and column).
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     /// The file could not be read.
-    #[error("cannot read {}: {source}", path.display())]
+    #[error("cannot read {}: {source}", clip(&path.display().to_string()))]
     Read {
         /// The file.
         path: PathBuf,
         /// Why.
         source: std::io::Error,
     },
+    /// The problem file is no regular file, too large or not UTF-8.
+    #[error("{}: {problem}", clip(&path.display().to_string()))]
+    File {
+        /// The file.
+        path: PathBuf,
+        /// What is wrong with it.
+        problem: FileProblem,
+    },
+    /// Problem text longer than [`MAX_PROBLEM_FILE_BYTES`] (given as a string).
+    #[error(
+        "the problem text is larger than {} (the cap on a problem file)",
+        mebibytes(*limit)
+    )]
+    TooLarge {
+        /// The cap, in bytes.
+        limit: u64,
+    },
+    /// `desired.file` (the samples of `kind = "samples"`) cannot be used.
+    #[error("`desired.file`: {}: {problem}", clip(&path.display().to_string()))]
+    Samples {
+        /// The samples file as resolved (relative to the problem file).
+        path: PathBuf,
+        /// What is wrong.
+        problem: SamplesProblem,
+    },
     /// An error in a file (wraps the others with the file name).
-    #[error("{}: {source}", path.display())]
+    #[error("{}: {source}", clip(&path.display().to_string()))]
     InFile {
         /// The file.
         path: PathBuf,
@@ -268,6 +503,22 @@ pub enum ConfigError {
         field: Option<String>,
         /// The parser's message.
         message: String,
+    },
+    /// An array key with the wrong number of entries.
+    #[error(
+        "`{field}` has {found} entr{}, expected {expected} ({meaning}): write {} = [{meaning}]",
+        if *found == 1 { "y" } else { "ies" },
+        field.rsplit('.').next().unwrap_or(field)
+    )]
+    Length {
+        /// The key.
+        field: String,
+        /// How many entries the file gives.
+        found: usize,
+        /// How many the key takes.
+        expected: usize,
+        /// What the entries are, e.g. `"I1, I2, I3"`.
+        meaning: &'static str,
     },
     /// A required key is missing.
     #[error("`{field}` is missing: {fix}")]
@@ -300,7 +551,8 @@ pub enum ConfigError {
     },
     /// `α` or `β` not positive: the optimal control problem is singular.
     #[error(
-        "`{field}` = {value} makes the problem singular: {why}; give a value > 0 (e.g. {example})"
+        "`{field}` = {} makes the problem singular: {why}; give a value > 0 (e.g. {example})",
+        Num(*value)
     )]
     Singular {
         /// The key.
@@ -380,10 +632,16 @@ impl ConfigError {
     /// The TOML path of the offending field, if the error is about one.
     pub fn field(&self) -> Option<&str> {
         match self {
-            ConfigError::Read { .. } => None,
+            ConfigError::Read { .. } | ConfigError::TooLarge { .. } => None,
+            ConfigError::File { problem, .. } => match problem {
+                FileProblem::NotUtf8 { field, .. } => field.as_deref(),
+                _ => None,
+            },
+            ConfigError::Samples { .. } => Some("desired.file"),
             ConfigError::InFile { source, .. } => source.field(),
             ConfigError::Toml { field, .. } => field.as_deref(),
             ConfigError::Missing { field, .. }
+            | ConfigError::Length { field, .. }
             | ConfigError::NotFinite { field, .. }
             | ConfigError::OutOfRange { field, .. }
             | ConfigError::Singular { field, .. }
@@ -396,16 +654,185 @@ impl ConfigError {
     }
 }
 
-/// Read and check a problem file; errors carry the file name.
+impl ConfigError {
+    /// The error itself, without the [`ConfigError::InFile`] wrapper that names the file.
+    pub fn inner(&self) -> &ConfigError {
+        match self {
+            ConfigError::InFile { source, .. } => source.inner(),
+            e => e,
+        }
+    }
+}
+
+/// Why a file (the problem file or a samples file) was not read.
+#[derive(Debug, thiserror::Error)]
+pub enum FileProblem {
+    /// A directory.
+    #[error("it is a directory, not a file")]
+    Directory,
+    /// A device, FIFO or socket (e.g. `/dev/zero`, which never ends).
+    #[error("it is not a regular file (a device, FIFO or socket); give a file")]
+    NotRegular,
+    /// Larger than the cap.
+    #[error(
+        "it is larger than {} (the cap on this kind of file)",
+        mebibytes(*limit)
+    )]
+    TooLarge {
+        /// The cap, in bytes.
+        limit: u64,
+    },
+    /// Not UTF-8 text.
+    #[error(
+        "it is not valid UTF-8 at line {line}, column {column}{}: save it as UTF-8 text",
+        field.as_ref().map(|f| format!(" (in `{f}`)")).unwrap_or_default()
+    )]
+    NotUtf8 {
+        /// 1-based line of the first invalid byte.
+        line: usize,
+        /// 1-based column (characters) of the first invalid byte.
+        column: usize,
+        /// The TOML path there (problem files).
+        field: Option<String>,
+    },
+}
+
+fn mebibytes(bytes: u64) -> String {
+    if bytes.is_multiple_of(1 << 20) {
+        format!("{} MiB", bytes >> 20)
+    } else {
+        format!("{bytes} bytes")
+    }
+}
+
+/// A file's bytes, read only if it is a regular file of at most `limit` bytes (and then at
+/// most `limit + 1` bytes are read, whatever the file claims).
+#[derive(Debug)]
+enum ReadFailure {
+    Io(std::io::Error),
+    File(FileProblem),
+}
+
+fn read_bounded(path: &Path, limit: u64) -> Result<Vec<u8>, ReadFailure> {
+    use std::io::Read;
+    // `metadata` follows symlinks and does not open the file (opening a FIFO would block).
+    let meta = std::fs::metadata(path).map_err(ReadFailure::Io)?;
+    if meta.is_dir() {
+        return Err(ReadFailure::File(FileProblem::Directory));
+    }
+    if !meta.is_file() {
+        return Err(ReadFailure::File(FileProblem::NotRegular));
+    }
+    if meta.len() > limit {
+        return Err(ReadFailure::File(FileProblem::TooLarge { limit }));
+    }
+    let file = std::fs::File::open(path).map_err(ReadFailure::Io)?;
+    let mut bytes = Vec::with_capacity(meta.len() as usize);
+    file.take(limit + 1)
+        .read_to_end(&mut bytes)
+        .map_err(ReadFailure::Io)?;
+    if bytes.len() as u64 > limit {
+        return Err(ReadFailure::File(FileProblem::TooLarge { limit }));
+    }
+    Ok(bytes)
+}
+
+/// `bytes` as text without a leading byte order mark, or where the first invalid UTF-8
+/// byte is (line, column, and for TOML the key there).
+fn decode(bytes: Vec<u8>, toml: bool) -> Result<String, FileProblem> {
+    match String::from_utf8(bytes) {
+        Ok(mut text) => {
+            if text.starts_with(BOM) {
+                text.drain(..BOM.len_utf8());
+            }
+            Ok(text)
+        }
+        Err(e) => {
+            let at = e.utf8_error().valid_up_to();
+            let bytes = e.into_bytes();
+            // Positions after a byte order mark, as the parser would see them.
+            let skip = if bytes.starts_with("\u{feff}".as_bytes()) {
+                BOM.len_utf8()
+            } else {
+                0
+            };
+            let valid = std::str::from_utf8(&bytes[skip..at]).unwrap_or_default();
+            let line = valid.matches('\n').count() + 1;
+            let column = valid.rsplit('\n').next().unwrap_or("").chars().count() + 1;
+            let field = if toml {
+                let lossy = String::from_utf8_lossy(&bytes[skip..]);
+                field_at(&lossy, at - skip).map(|f| clip_to(&f, MAX_ECHO_CHARS / 2))
+            } else {
+                None
+            };
+            Err(FileProblem::NotUtf8 {
+                line,
+                column,
+                field,
+            })
+        }
+    }
+}
+
+const BOM: char = '\u{feff}';
+
+/// At most [`MAX_ECHO_CHARS`] characters of a piece of input (with `…` if cut).
+fn clip(s: &str) -> String {
+    clip_to(s, MAX_ECHO_CHARS)
+}
+
+fn clip_to(s: &str, max_chars: usize) -> String {
+    match s.char_indices().nth(max_chars) {
+        Some((end, _)) => format!("{}…", &s[..end]),
+        None => s.to_string(),
+    }
+}
+
+/// The `toml` crate's message with every echoed piece of input capped: it shows the source
+/// line, a caret line as long as the offending span, and quotes keys and strings in the
+/// message itself. Each quoted piece (between backticks or double quotes) keeps at most
+/// half of [`MAX_ECHO_CHARS`] characters, so that what follows it (e.g. the list of valid
+/// keys) survives, and each line at most `MAX_ECHO_CHARS + 50`.
+fn clip_toml_message(s: &str) -> String {
+    let clip_pieces = |line: &str| {
+        let mut out = String::new();
+        let mut piece = String::new();
+        for c in line.chars() {
+            if c == '`' || c == '"' {
+                out.push_str(&clip_to(&piece, MAX_ECHO_CHARS / 2));
+                out.push(c);
+                piece.clear();
+            } else {
+                piece.push(c);
+            }
+        }
+        out.push_str(&clip_to(&piece, MAX_ECHO_CHARS / 2));
+        clip_to(&out, MAX_ECHO_CHARS + 50)
+    };
+    s.lines().map(clip_pieces).collect::<Vec<_>>().join("\n")
+}
+
+/// Read and check a problem file; errors carry the file name. The file must be a regular
+/// file of at most [`MAX_PROBLEM_FILE_BYTES`] bytes of UTF-8 (a leading byte order mark is
+/// skipped).
 pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Read {
+    let file_error = |problem| ConfigError::File {
         path: path.to_path_buf(),
-        source,
+        problem,
+    };
+    let bytes = read_bounded(path, MAX_PROBLEM_FILE_BYTES).map_err(|e| match e {
+        ReadFailure::Io(source) => ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadFailure::File(problem) => file_error(problem),
     })?;
-    let default_name = path
-        .file_stem()
-        .map(|s| s.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "problem".to_string());
+    let text = decode(bytes, true).map_err(file_error)?;
+    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let default_name = match stem {
+        Some(stem) => DefaultName::FileStem(stem),
+        None => DefaultName::Fixed("problem".into()),
+    };
     let base = path.parent().unwrap_or(Path::new(""));
     parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
         path: path.to_path_buf(),
@@ -414,17 +841,38 @@ pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
 }
 
 /// Check a problem given as TOML text (case name default `"problem"`; a samples file is
-/// looked up relative to the current directory).
+/// looked up relative to the current directory). The same caps as [`load`] apply.
 pub fn from_toml_str(text: &str) -> Result<LoadedProblem, ConfigError> {
-    parse(text, "problem", Path::new(""))
+    parse(text, &DefaultName::Fixed("problem".into()), Path::new(""))
 }
 
-fn parse(text: &str, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
+/// Where the case name comes from when the file has no `name`.
+enum DefaultName {
+    /// The problem file's name without extension (checked like a given name).
+    FileStem(String),
+    /// A name given by the caller.
+    Fixed(String),
+}
+
+fn parse(
+    text: &str,
+    default_name: &DefaultName,
+    base_dir: &Path,
+) -> Result<LoadedProblem, ConfigError> {
+    if text.len() as u64 > MAX_PROBLEM_FILE_BYTES {
+        return Err(ConfigError::TooLarge {
+            limit: MAX_PROBLEM_FILE_BYTES,
+        });
+    }
+    let text = text.strip_prefix(BOM).unwrap_or(text);
     let file: ProblemFile = toml::from_str(text).map_err(|e| ConfigError::Toml {
-        field: e.span().and_then(|span| field_at(text, span.start)),
-        message: e.to_string().trim_end().to_string(),
+        field: e
+            .span()
+            .and_then(|span| field_at(text, span.start))
+            .map(|f| clip_to(&f, MAX_ECHO_CHARS / 2)),
+        message: clip_toml_message(e.to_string().trim_end()),
     })?;
-    file.build(default_name, base_dir)
+    file.build_named(default_name, base_dir)
 }
 
 /// The TOML path (table header and keys) at byte offset `pos` of `src`, best effort: the
@@ -495,22 +943,40 @@ fn field_at(src: &str, pos: usize) -> Option<String> {
     (!parts.is_empty()).then(|| parts.join("."))
 }
 
-/// [`ConfigError::OffEllipsoid`] unless `v` is on `e` (relative energy within
-/// [`ENERGY_REL_TOL`]).
-fn on_ellipsoid(field: &str, e: &EnergyEllipsoid, v: &Vector3<f64>) -> Result<(), ConfigError> {
-    let mismatch = e.relative_mismatch(v);
-    if mismatch.abs() <= ENERGY_REL_TOL {
-        return Ok(());
+/// `v` projected radially onto `e` (a change of at most ~[`ENERGY_REL_TOL`]` / 2` relative),
+/// or [`ConfigError::OffEllipsoid`] if it is further off than `ENERGY_REL_TOL` (relative
+/// energy) or [`ConfigError::ZeroVector`] if it is 0. Every vector that must lie on the
+/// ellipsoid goes through here, so the validated problem carries it on `E` to round-off and
+/// no later, stricter check can reject what validation accepted.
+fn onto_ellipsoid(
+    field: &str,
+    e: &EnergyEllipsoid,
+    v: &Vector3<f64>,
+) -> Result<Vector3<f64>, ConfigError> {
+    if v.iter().all(|x| *x == 0.0) {
+        return Err(ConfigError::ZeroVector {
+            field: field.to_string(),
+            why: "it must lie on omega_a's energy ellipsoid (Suslov's equations conserve the \
+                  kinetic energy), which does not contain 0",
+        });
     }
-    let projection = e
-        .project(v)
-        .map(|p| [p[0], p[1], p[2]])
-        .unwrap_or([f64::NAN; 3]);
+    let projection = e.project(v).map_err(|err| ConfigError::Invalid {
+        field: field.to_string(),
+        message: format!("{err}; rescale it"),
+    })?;
+    let mismatch = e.relative_mismatch(v);
+    if mismatch.abs() <= 8.0 * f64::EPSILON {
+        // On E to round-off already (e.g. a path's computed end point): keep it bit for bit.
+        return Ok(*v);
+    }
+    if mismatch.abs() <= ENERGY_REL_TOL {
+        return Ok(projection);
+    }
     Err(ConfigError::OffEllipsoid {
         field: field.to_string(),
         value: [v[0], v[1], v[2]],
         mismatch,
-        projection,
+        projection: [projection[0], projection[1], projection[2]],
     })
 }
 
@@ -532,7 +998,9 @@ fn finite(field: &str, value: f64) -> Result<f64, ConfigError> {
     }
 }
 
-fn finite3(field: &str, v: [f64; 3]) -> Result<Vector3<f64>, ConfigError> {
+/// A 3-vector key: exactly 3 entries, all finite.
+fn vector3(field: &str, v: Numbers<3>) -> Result<Vector3<f64>, ConfigError> {
+    let v = exact(field, v, XYZ)?;
     for (i, x) in v.iter().enumerate() {
         finite(&format!("{field}[{i}]"), *x)?;
     }
@@ -546,7 +1014,7 @@ fn positive(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> {
     } else {
         Err(ConfigError::OutOfRange {
             field: field.to_string(),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: format!("must be > 0 ({why})"),
         })
     }
@@ -559,7 +1027,7 @@ fn non_negative(field: &str, value: f64, why: &str) -> Result<f64, ConfigError> 
     } else {
         Err(ConfigError::OutOfRange {
             field: field.to_string(),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: format!("must be >= 0 ({why}); use 0 to switch the term off"),
         })
     }
@@ -606,7 +1074,61 @@ struct Desired {
     start_hint: &'static str,
     /// The path's natural end time (default start value of a free terminal time).
     end_time: Option<f64>,
+    /// The key to blame when the path is not finite somewhere ([`check_path_finite`]), and
+    /// what to change.
+    overflow: (&'static str, &'static str),
+    /// Times where the path changes fastest (checked besides a uniform grid).
+    special_times: Vec<f64>,
 }
+
+/// Points of the uniform grid on `[t0, b]` at which [`check_path_finite`] evaluates the
+/// path (besides `t0`, `b`, the path's end time and its special times).
+const PATH_CHECK_POINTS: usize = 1025;
+
+/// The desired path's value and first three derivatives (the BVP uses the first, the
+/// start's singular control up to the third) must be finite in `f64` on `[t0, b]`: a
+/// sigmoid narrower than `f64` can differentiate (`1/width³` overflows), samples `1e-300`
+/// apart or a segment over `1e-300` time units give infinities, which the solver would only
+/// report later as an unrelated failure ("Property 3 fails"). Checked at `t0`, `b`, the
+/// path's end time and special times, and on a uniform grid.
+fn check_path_finite(
+    path: &dyn DesiredPath,
+    what: &str,
+    (t0, b): (f64, f64),
+    special_times: &[f64],
+    (field, fix): (&str, &str),
+) -> Result<(), ConfigError> {
+    let grid =
+        (0..PATH_CHECK_POINTS).map(|k| t0 + (b - t0) * k as f64 / (PATH_CHECK_POINTS - 1) as f64);
+    let times = [t0, b]
+        .into_iter()
+        .chain(special_times.iter().copied())
+        .chain(grid);
+    for t in times {
+        let jet = path.jet(t);
+        let finite = [jet.value, jet.d1, jet.d2, jet.d3]
+            .iter()
+            .all(|v| v.iter().all(|x| x.is_finite()));
+        if !finite {
+            return Err(ConfigError::Invalid {
+                field: field.into(),
+                message: format!(
+                    "{what} or one of its first three time derivatives is not finite at t = {} \
+                     (it overflows f64); {fix}",
+                    Num(t)
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// `b − t0` must be at least this fraction of `max(|t0|, |b|)`. The solver evaluates the
+/// desired path at `t = t0 + s (b − t0)`, rounded to ~`2.2e-16 |t|`; with the bound that is
+/// at most `2.2e-10` of the span, i.e. `2.2e-4` of the smallest interval of a mesh graded a
+/// million to one. (`t0` = 1.7e9, Unix seconds, with a 10 s span would round every time to
+/// 2.4e-7 s.)
+pub const TIME_SPAN_REL_MIN: f64 = 1e-6;
 
 /// Terminal time as given, before defaults from the desired path.
 enum Terminal {
@@ -616,9 +1138,120 @@ enum Terminal {
 
 const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"";
 
-/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; blank lines, `#` comments and
-/// a first line that is not numeric (a header) are skipped. Errors name the line.
-pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
+/// What is wrong with the rows of a samples file ([`parse_samples`]); lines are 1-based.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum SamplesError {
+    /// A field that is not a number (after the header line).
+    #[error("line {line}: {source} in {text:?}")]
+    NotANumber {
+        /// The line.
+        line: usize,
+        /// The parser's reason.
+        source: std::num::ParseFloatError,
+        /// The line's text (at most [`MAX_ECHO_CHARS`] characters).
+        text: String,
+    },
+    /// Not four fields.
+    #[error(
+        "line {line}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {found}"
+    )]
+    Columns {
+        /// The line.
+        line: usize,
+        /// How many fields it has.
+        found: usize,
+    },
+    /// NaN or infinity.
+    #[error("line {line}: {value} is not a finite number")]
+    NotFinite {
+        /// The line.
+        line: usize,
+        /// The value.
+        value: f64,
+    },
+    /// `Ω_d = 0`, which has no radial projection.
+    #[error("line {line}: Omega_d = 0 cannot be projected onto the energy ellipsoid")]
+    Zero {
+        /// The line.
+        line: usize,
+    },
+    /// `t` not after the previous row's.
+    #[error("line {line}: t = {} does not increase (previous t = {})", Num(*t), Num(*previous))]
+    NotIncreasing {
+        /// The line.
+        line: usize,
+        /// Its `t`.
+        t: f64,
+        /// The previous row's `t`.
+        previous: f64,
+    },
+    /// Fewer than two rows.
+    #[error("needs at least 2 samples, found {found}")]
+    TooFew {
+        /// How many rows there are.
+        found: usize,
+    },
+    /// More rows than [`MAX_SAMPLE_ROWS`].
+    #[error("has more than {limit} rows (the cap on a samples file); use fewer samples")]
+    TooMany {
+        /// The cap.
+        limit: usize,
+    },
+}
+
+/// Why `desired.file` cannot be used.
+#[derive(Debug, thiserror::Error)]
+pub enum SamplesProblem {
+    /// An I/O error.
+    #[error("cannot read it ({0})")]
+    Read(std::io::Error),
+    /// No regular file, too large, or not UTF-8.
+    #[error("{0}")]
+    File(FileProblem),
+    /// A bad row.
+    #[error("{0}")]
+    Rows(SamplesError),
+    /// The samples do not cover `t0`.
+    #[error(
+        "the samples cover [{}, {}], which must contain boundary.t0 = {} (and reach beyond it)",
+        Num(*first),
+        Num(*last),
+        Num(*t0)
+    )]
+    Coverage {
+        /// First `t`.
+        first: f64,
+        /// Last `t`.
+        last: f64,
+        /// `boundary.t0`.
+        t0: f64,
+    },
+    /// The spline through the samples cannot be built.
+    #[error("{0}")]
+    Spline(SuslovError),
+}
+
+/// A number in a message: plain when short, in exponent notation when huge or tiny (so that
+/// `1e300` is not printed with 300 digits).
+#[derive(Debug, Clone, Copy)]
+struct Num(f64);
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-5..1e16).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+/// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; a leading byte order mark,
+/// blank lines, `#` comments and a first line that is not numeric (a header) are skipped.
+/// At most [`MAX_SAMPLE_ROWS`] rows. Errors name the line.
+pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), SamplesError> {
+    let text = text.strip_prefix(BOM).unwrap_or(text);
     let mut times = Vec::new();
     let mut values = Vec::new();
     let mut first_content = true;
@@ -627,44 +1260,51 @@ pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), String> {
         if line.is_empty() {
             continue;
         }
-        let fields: Vec<&str> = line.split(',').map(str::trim).collect();
-        let numbers: Result<Vec<f64>, _> = fields.iter().map(|f| f.parse::<f64>()).collect();
+        let numbers: Result<Vec<f64>, _> =
+            line.split(',').map(|f| f.trim().parse::<f64>()).collect();
         let header = std::mem::replace(&mut first_content, false);
         let numbers = match numbers {
             Ok(n) => n,
             Err(_) if header => continue,
-            Err(e) => return Err(format!("line {}: {e} in {line:?}", i + 1)),
+            Err(source) => {
+                return Err(SamplesError::NotANumber {
+                    line: i + 1,
+                    source,
+                    text: clip(line),
+                })
+            }
         };
         if numbers.len() != 4 {
-            return Err(format!(
-                "line {}: expected 4 comma-separated numbers t, omega1, omega2, omega3, got {}",
-                i + 1,
-                numbers.len()
-            ));
+            return Err(SamplesError::Columns {
+                line: i + 1,
+                found: numbers.len(),
+            });
         }
-        if let Some(x) = numbers.iter().find(|x| !x.is_finite()) {
-            return Err(format!("line {}: {x} is not a finite number", i + 1));
+        if let Some(&value) = numbers.iter().find(|x| !x.is_finite()) {
+            return Err(SamplesError::NotFinite { line: i + 1, value });
         }
         if numbers[1..].iter().all(|x| *x == 0.0) {
-            return Err(format!(
-                "line {}: Omega_d = 0 cannot be projected onto the energy ellipsoid",
-                i + 1
-            ));
+            return Err(SamplesError::Zero { line: i + 1 });
         }
-        if let Some(&prev) = times.last() {
-            if numbers[0] <= prev {
-                return Err(format!(
-                    "line {}: t = {} does not increase (previous t = {prev})",
-                    i + 1,
-                    numbers[0]
-                ));
+        if let Some(&previous) = times.last() {
+            if numbers[0] <= previous {
+                return Err(SamplesError::NotIncreasing {
+                    line: i + 1,
+                    t: numbers[0],
+                    previous,
+                });
             }
+        }
+        if times.len() == MAX_SAMPLE_ROWS {
+            return Err(SamplesError::TooMany {
+                limit: MAX_SAMPLE_ROWS,
+            });
         }
         times.push(numbers[0]);
         values.push([numbers[1], numbers[2], numbers[3]]);
     }
     if times.len() < 2 {
-        return Err(format!("needs at least 2 samples, found {}", times.len()));
+        return Err(SamplesError::TooFew { found: times.len() });
     }
     Ok((times, values))
 }
@@ -673,16 +1313,61 @@ impl ProblemFile {
     /// Check every field and build the problem; `default_name` is used without `name`, and
     /// a relative `desired.file` is looked up in `base_dir`.
     pub fn build(&self, default_name: &str, base_dir: &Path) -> Result<LoadedProblem, ConfigError> {
-        let name = match &self.name {
-            Some(n) if n.trim().is_empty() => {
-                return Err(ConfigError::Invalid {
-                    field: "name".into(),
-                    message: "is empty; give a case name or remove the key".into(),
-                })
-            }
-            Some(n) => n.clone(),
-            None => default_name.to_string(),
+        self.build_named(&DefaultName::Fixed(default_name.to_string()), base_dir)
+    }
+
+    /// The case name: `name`, or the default; either must be one line of printable text of
+    /// at most [`MAX_NAME_CHARS`] characters.
+    fn case_name(&self, default: &DefaultName) -> Result<String, ConfigError> {
+        let (name, origin) = match (&self.name, default) {
+            (Some(n), _) => (n.as_str(), None),
+            (None, DefaultName::FileStem(n)) => (n.as_str(), Some("the file name")),
+            (None, DefaultName::Fixed(n)) => (n.as_str(), Some("the default name")),
         };
+        let invalid = |what: String| {
+            let message = match origin {
+                None => format!(
+                    "{what}; give a single line of at most {MAX_NAME_CHARS} characters or \
+                     remove the key"
+                ),
+                Some(origin) => format!(
+                    "not given, and {origin} \"{}\" {what}; add name = \"my_case\" at the top \
+                     of the file",
+                    clip(name).escape_debug()
+                ),
+            };
+            ConfigError::Invalid {
+                field: "name".into(),
+                message,
+            }
+        };
+        if name.trim().is_empty() {
+            return Err(invalid("is empty".into()));
+        }
+        let chars = name.chars().count();
+        if chars > MAX_NAME_CHARS {
+            return Err(invalid(format!(
+                "has {chars} characters, at most {MAX_NAME_CHARS} (the name labels \
+                 summary.json and every figure title)"
+            )));
+        }
+        if let Some((k, c)) = name.chars().enumerate().find(|(_, c)| c.is_control()) {
+            return Err(invalid(format!(
+                "contains the control character U+{:04X} at character {}: a case name is one \
+                 line of printable text (it labels summary.json and every figure title)",
+                u32::from(c),
+                k + 1
+            )));
+        }
+        Ok(name.to_string())
+    }
+
+    fn build_named(
+        &self,
+        default_name: &DefaultName,
+        base_dir: &Path,
+    ) -> Result<LoadedProblem, ConfigError> {
+        let name = self.case_name(default_name)?;
         // [body]
         let body = self.body.as_ref().ok_or_else(|| {
             missing(
@@ -690,12 +1375,16 @@ impl ProblemFile {
                 "add a [body] table with inertia = [I1, I2, I3] (principal moments, > 0)",
             )
         })?;
-        let inertia = body.inertia.ok_or_else(|| {
-            missing(
-                "body.inertia",
-                "add inertia = [I1, I2, I3] under [body] (principal moments, > 0)",
-            )
-        })?;
+        let inertia = exact(
+            "body.inertia",
+            body.inertia.ok_or_else(|| {
+                missing(
+                    "body.inertia",
+                    "add inertia = [I1, I2, I3] under [body] (principal moments, > 0)",
+                )
+            })?,
+            "I1, I2, I3",
+        )?;
         for (i, m) in inertia.iter().enumerate() {
             positive(
                 &format!("body.inertia[{i}]"),
@@ -716,7 +1405,7 @@ impl ProblemFile {
             )
         })?;
         let t0 = finite("boundary.t0", boundary.t0.unwrap_or(0.0))?;
-        let omega_a = finite3(
+        let omega_a = vector3(
             "boundary.omega_a",
             boundary.omega_a.ok_or_else(|| {
                 missing(
@@ -736,9 +1425,9 @@ impl ProblemFile {
             EnergyEllipsoid::through(inertia, &omega_a).map_err(|_| ConfigError::Invalid {
                 field: "boundary.omega_a".into(),
                 message: format!(
-                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a positive \
-                     finite number in f64 (over- or underflow); rescale omega_a or \
-                     body.inertia",
+                    "twice its kinetic energy <omega_a, I omega_a> = {:e} is not a normal \
+                     positive f64 (overflow, or below 2.2e-308: too few significant bits); \
+                     rescale omega_a or body.inertia",
                     inertia.apply(&omega_a).dot(&omega_a)
                 ),
             })?;
@@ -798,8 +1487,10 @@ impl ProblemFile {
                 return Err(ConfigError::TerminalTime {
                     field: key.into(),
                     message: format!(
-                        "terminal time {b} must be greater than boundary.t0 = {t0}; \
-                         give a later time"
+                        "terminal time {} must be greater than boundary.t0 = {}; \
+                         give a later time",
+                        Num(b),
+                        Num(t0)
                     ),
                 });
             }
@@ -901,14 +1592,39 @@ impl ProblemFile {
                     return Err(ConfigError::TerminalTime {
                         field: "boundary.terminal_time.guess".into(),
                         message: format!(
-                            "the default guess {guess} (the desired path's end time) is not \
-                             after boundary.t0 = {t0}; give guess = b > t0"
+                            "the default guess {} (the desired path's end time) is not \
+                             after boundary.t0 = {}; give guess = b > t0",
+                            Num(guess),
+                            Num(t0)
                         ),
                     });
                 }
                 TerminalTime::Free { guess }
             }
         };
+
+        let b = terminal.initial();
+        if b - t0 < TIME_SPAN_REL_MIN * t0.abs().max(b.abs()) {
+            return Err(ConfigError::OutOfRange {
+                field: "boundary.t0".into(),
+                value: Num(t0).to_string(),
+                requirement: format!(
+                    "the time span b - t0 = {} is below {TIME_SPAN_REL_MIN:e} of |t0| (b = {}): \
+                     times near t0 are rounded to ~{:.1e} in f64, too coarse for this span; \
+                     shift the time origin (t0 = 0, and the desired path's times with it)",
+                    Num(b - t0),
+                    Num(b),
+                    f64::EPSILON * t0.abs().max(b.abs())
+                ),
+            });
+        }
+        check_path_finite(
+            &*desired.path,
+            &format!("the desired path ([desired] kind = \"{}\")", desired.kind),
+            (t0, b),
+            &desired.special_times,
+            desired.overflow,
+        )?;
 
         // Omega_b.
         let omega_b_spec = boundary.omega_b.ok_or_else(|| {
@@ -920,13 +1636,30 @@ impl ProblemFile {
         })?;
         let omega_b = match omega_b_spec {
             OmegaBSpec::DesiredEnd => desired.end_point,
-            OmegaBSpec::Vector(v) => finite3("boundary.omega_b", v)?,
+            OmegaBSpec::Vector(v) => vector3("boundary.omega_b", v)?,
         };
         let field = match omega_b_spec {
             OmegaBSpec::DesiredEnd => "boundary.omega_b (= \"desired_end\")",
             OmegaBSpec::Vector(_) => "boundary.omega_b",
         };
-        on_ellipsoid(field, &ellipsoid, &omega_b)?;
+        let omega_b = onto_ellipsoid(field, &ellipsoid, &omega_b)?;
+
+        // The solver's fallback start (gamma = 0, start = "segment", or a desired path that
+        // violates Property 1 or 3) is the projected segment omega_a -> omega_b on [t0, b]:
+        // it must be finite too (a tiny b - t0 overflows its derivatives).
+        if let Ok(segment) = ProjectedSegment::new(inertia, omega_a, omega_b, t0, b) {
+            check_path_finite(
+                &segment,
+                "the solver's start path (the projected segment from omega_a to omega_b over \
+                 [t0, b])",
+                (t0, b),
+                &[],
+                (
+                    "boundary.terminal_time",
+                    "its derivatives grow like 1/(b - t0)^3: give a later terminal time",
+                ),
+            )?;
+        }
 
         // The desired path starts at Omega_a.
         if gamma > 0.0 {
@@ -945,7 +1678,7 @@ impl ProblemFile {
             }
         }
 
-        let options = self.solve_options()?;
+        let options = self.solve_options(beta, gamma)?;
         let problem = SuslovProblem {
             inertia,
             weights: CostWeights {
@@ -962,10 +1695,14 @@ impl ProblemFile {
             desired: desired.path,
         };
         problem.validate().map_err(problem_error)?;
+        let warnings = triangle_warning(problem.inertia.diag().into())
+            .into_iter()
+            .collect();
         Ok(LoadedProblem {
             name,
             problem,
             options,
+            warnings,
         })
     }
 
@@ -994,10 +1731,11 @@ impl ProblemFile {
                 if b_d <= t0 {
                     return Err(ConfigError::OutOfRange {
                         field: "desired.b_d".into(),
-                        value: b_d.to_string(),
+                        value: Num(b_d).to_string(),
                         requirement: format!(
-                            "the switching time must be after boundary.t0 = {t0}; give a \
-                             later b_d"
+                            "the switching time must be after boundary.t0 = {}; give a \
+                             later b_d",
+                            Num(t0)
                         ),
                     });
                 }
@@ -1015,17 +1753,26 @@ impl ProblemFile {
                     start_hint: "the spiral starts on the ray of [c, t0 cos t0, t0 sin t0]; \
                                  with t0 = 0 any omega_a = [x, 0, 0] with x > 0 and c > 0",
                     end_time: Some(b_d),
+                    overflow: (
+                        "desired.width",
+                        "the sigmoid's derivatives grow like 1/width^3: give a larger width \
+                         (or smaller c, b_d)",
+                    ),
+                    special_times: vec![b_d],
                 })
             }
             "segment" => {
                 reject_unused(d, kind, &["from", "to", "interval"])?;
                 let from = match d.from {
-                    Some(v) => finite3("desired.from", v)?,
+                    Some(v) => vector3("desired.from", v)?,
                     None => omega_a,
                 };
-                let to = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
-                    (Some(v), _) => finite3("desired.to", v)?,
-                    (None, Some(OmegaBSpec::Vector(v))) => finite3("boundary.omega_b", v)?,
+                // The key `to` comes from (the message must name a key in the file).
+                let (to_key, to) = match (d.to, self.boundary.as_ref().and_then(|b| b.omega_b)) {
+                    (Some(v), _) => ("desired.to", vector3("desired.to", v)?),
+                    (None, Some(OmegaBSpec::Vector(v))) => {
+                        ("boundary.omega_b", vector3("boundary.omega_b", v)?)
+                    }
                     (None, _) => {
                         return Err(missing(
                             "desired.to",
@@ -1035,11 +1782,19 @@ impl ProblemFile {
                         ))
                     }
                 };
+                let from_key = if d.from.is_some() {
+                    "desired.from"
+                } else {
+                    "boundary.omega_a"
+                };
                 let (a, b) = match (d.interval, terminal) {
-                    (Some([a, b]), _) => (
-                        finite("desired.interval[0]", a)?,
-                        finite("desired.interval[1]", b)?,
-                    ),
+                    (Some(interval), _) => {
+                        let [a, b] = exact("desired.interval", interval, "t_start, t_end")?;
+                        (
+                            finite("desired.interval[0]", a)?,
+                            finite("desired.interval[1]", b)?,
+                        )
+                    }
                     (None, Terminal::Fixed(b) | Terminal::Free(Some(b))) => (t0, *b),
                     (None, Terminal::Free(None)) => {
                         return Err(missing(
@@ -1052,27 +1807,26 @@ impl ProblemFile {
                 if a >= b {
                     return Err(ConfigError::OutOfRange {
                         field: "desired.interval".into(),
-                        value: format!("[{a}, {b}]"),
+                        value: format!("[{}, {}]", Num(a), Num(b)),
                         requirement: "needs start < end; give interval = [t_start, t_end]".into(),
                     });
                 }
-                for (key, v) in [("desired.from", from), ("desired.to", to)] {
-                    if v.iter().all(|x| *x == 0.0) {
-                        return Err(ConfigError::ZeroVector {
-                            field: key.into(),
-                            why: "the segment's end points are projected radially onto the \
-                                  energy ellipsoid, which is undefined at 0",
-                        });
-                    }
-                    on_ellipsoid(key, ellipsoid, &v)?;
-                }
-                // ProjectedSegment is built through `from`'s ellipsoid, equal to Ω_a's.
-                let segment = ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| {
-                    ConfigError::Invalid {
-                        field: "desired.to".into(),
-                        message: format!("{e}; choose end points that are not opposite"),
-                    }
-                })?;
+                let from = onto_ellipsoid(from_key, ellipsoid, &from)?;
+                let to = onto_ellipsoid(to_key, ellipsoid, &to)?;
+                let segment =
+                    ProjectedSegment::new(inertia, from, to, a, b).map_err(|e| match e {
+                        SuslovError::SegmentThroughOrigin { .. } => ConfigError::Invalid {
+                            field: to_key.into(),
+                            message: format!(
+                                "{e}; choose end points that are not opposite (or go \
+                                 through a point in between with a samples path)"
+                            ),
+                        },
+                        other => ConfigError::Invalid {
+                            field: "desired".into(),
+                            message: other.to_string(),
+                        },
+                    })?;
                 Ok(Desired {
                     kind: "segment",
                     path: Arc::new(segment),
@@ -1080,11 +1834,25 @@ impl ProblemFile {
                     start_hint: "set desired.from = omega_a (the default) and \
                                  desired.interval[0] = t0",
                     end_time: Some(b),
+                    overflow: if d.interval.is_some() {
+                        (
+                            "desired.interval",
+                            "its derivatives grow like 1/(t_end - t_start)^3: give a longer \
+                             interval",
+                        )
+                    } else {
+                        (
+                            "boundary.terminal_time",
+                            "the segment spans [t0, b] and its derivatives grow like \
+                             1/(b - t0)^3: give a later terminal time",
+                        )
+                    },
+                    special_times: vec![a, b],
                 })
             }
             "constant" => {
                 reject_unused(d, kind, &["value"])?;
-                let value = finite3(
+                let value = vector3(
                     "desired.value",
                     d.value.ok_or_else(|| {
                         missing("desired.value", "add value = [x, y, z] under [desired]")
@@ -1097,6 +1865,8 @@ impl ProblemFile {
                     start_hint: "value = omega_a; or set cost.gamma = 0, then Omega_d is not \
                                  part of the cost",
                     end_time: None,
+                    overflow: ("desired.value", "give a smaller value"),
+                    special_times: vec![],
                 })
             }
             "samples" => {
@@ -1109,21 +1879,26 @@ impl ProblemFile {
                     )
                 })?;
                 let path = base_dir.join(file);
-                let bad = |message: String| ConfigError::Invalid {
-                    field: "desired.file".into(),
-                    message: format!("{}: {message}", path.display()),
+                let bad = |problem| ConfigError::Samples {
+                    path: path.clone(),
+                    problem,
                 };
-                let text = std::fs::read_to_string(&path)
-                    .map_err(|e| bad(format!("cannot read it ({e})")))?;
-                let (times, values) = parse_samples(&text).map_err(&bad)?;
+                let bytes = read_bounded(&path, MAX_SAMPLES_FILE_BYTES).map_err(|e| {
+                    bad(match e {
+                        ReadFailure::Io(e) => SamplesProblem::Read(e),
+                        ReadFailure::File(p) => SamplesProblem::File(p),
+                    })
+                })?;
+                let text = decode(bytes, false).map_err(|p| bad(SamplesProblem::File(p)))?;
+                let (times, values) =
+                    parse_samples(&text).map_err(|e| bad(SamplesProblem::Rows(e)))?;
+                drop(text);
                 let (first, last) = (times[0], times[times.len() - 1]);
                 if !(first <= t0 && t0 < last) {
-                    return Err(bad(format!(
-                        "the samples cover [{first}, {last}], which must contain \
-                         boundary.t0 = {t0} (and reach beyond it)"
-                    )));
+                    return Err(bad(SamplesProblem::Coverage { first, last, t0 }));
                 }
-                let spline = SampledPath::new(&times, &values).map_err(|e| bad(e.to_string()))?;
+                let spline = SampledPath::new(&times, &values)
+                    .map_err(|e| bad(SamplesProblem::Spline(e)))?;
                 let path = Projected::new(spline, *ellipsoid);
                 let end_point = path.value(last);
                 Ok(Desired {
@@ -1133,49 +1908,114 @@ impl ProblemFile {
                     start_hint: "the first sample, projected radially onto the energy \
                                  ellipsoid, must be omega_a",
                     end_time: Some(last),
+                    overflow: (
+                        "desired.file",
+                        "the spline's derivatives grow like (value change)/(t spacing)^3: \
+                         space the samples further apart or make them smaller",
+                    ),
+                    special_times: vec![first, last],
                 })
             }
             other => Err(ConfigError::Invalid {
                 field: "desired.kind".into(),
-                message: format!("unknown kind \"{other}\"; use {KINDS}"),
+                message: format!("unknown kind {:?}; use {KINDS}", clip(other)),
             }),
         }
     }
 
-    fn solve_options(&self) -> Result<SolveOptions, ConfigError> {
+    /// `[solver]`, checked against the caps and ranges above; `beta` and `gamma` are the
+    /// cost weights.
+    fn solve_options(&self, beta: f64, gamma: f64) -> Result<SolveOptions, ConfigError> {
         let mut o = SolveOptions::default();
         let Some(s) = &self.solver else {
             return Ok(o);
         };
+        let in_range = |field: &str, v: f64, (lo, hi): (f64, f64), why: &str| {
+            finite(field, v)?;
+            if (lo..=hi).contains(&v) {
+                Ok(v)
+            } else {
+                Err(ConfigError::OutOfRange {
+                    field: field.into(),
+                    value: Num(v).to_string(),
+                    requirement: format!("must lie between {lo:e} and {hi:e}: {why}"),
+                })
+            }
+        };
         if let Some(v) = s.tolerance {
-            o.tol = positive("solver.tolerance", v, "the BVP error tolerance")?;
+            o.tol = in_range(
+                "solver.tolerance",
+                v,
+                TOLERANCE_RANGE,
+                "below, f64 round-off keeps Newton from converging; above, the error \
+                 estimate is no longer an error bound (e.g. 1e-8)",
+            )?;
         }
         if let Some(v) = s.continuation_tolerance {
-            o.continuation_tol = positive(
+            o.continuation_tol = in_range(
                 "solver.continuation_tolerance",
                 v,
-                "the BVP error tolerance during continuation",
+                CONTINUATION_TOLERANCE_RANGE,
+                "below, f64 round-off keeps Newton from converging; above, the continuation \
+                 steps lose the path (e.g. 1e-4)",
             )?;
         }
         if let Some(v) = s.beta_m {
-            o.beta_m = Some(positive(
-                "solver.beta_m",
-                v,
-                "the small beta of the analytic start; beta = 0 is singular",
-            )?);
-        }
-        if let Some(n) = s.initial_intervals {
-            if n < 2 {
+            let (lo, hi) = (BETA_M_MIN_RATIO * beta, beta);
+            finite("solver.beta_m", v)?;
+            if !(lo..=hi).contains(&v) {
                 return Err(ConfigError::OutOfRange {
-                    field: "solver.initial_intervals".into(),
-                    value: n.to_string(),
-                    requirement: "must be >= 2 (intervals of the initial mesh); e.g. 200".into(),
+                    field: "solver.beta_m".into(),
+                    value: Num(v).to_string(),
+                    requirement: format!(
+                        "must lie between {} and cost.beta = {} (the analytic start solves \
+                         the problem at beta = beta_m, valid for small beta, and continues \
+                         beta_m -> beta; the default is 1e-2 min(alpha, beta, gamma or 1)); \
+                         remove it or give e.g. {}",
+                        Num(lo),
+                        Num(hi),
+                        Num(1e-2 * beta)
+                    ),
                 });
             }
-            o.initial_intervals = n;
+            o.beta_m = Some(v);
+        }
+        // The caps first: a huge initial_intervals is its own error, not max_nodes'.
+        let capped = |field: &str, n: usize, (lo, cap): (usize, usize), what: &str| {
+            if (lo..=cap).contains(&n) {
+                Ok(n)
+            } else {
+                Err(ConfigError::OutOfRange {
+                    field: field.into(),
+                    value: n.to_string(),
+                    requirement: if n < lo {
+                        format!("must be >= {lo} ({what})")
+                    } else {
+                        format!(
+                            "at most {cap} ({what}); a BVP node costs ~{} kB of memory \
+                             (measured), so the cap bounds a solve to ~{:.1} GB",
+                            MEMORY_PER_NODE_BYTES / 1000,
+                            (cap as u64 * MEMORY_PER_NODE_BYTES) as f64 / 1e9
+                        )
+                    },
+                })
+            }
+        };
+        if let Some(n) = s.initial_intervals {
+            o.initial_intervals = capped(
+                "solver.initial_intervals",
+                n,
+                (2, MAX_INITIAL_INTERVALS),
+                "intervals of the initial mesh, e.g. 200",
+            )?;
         }
         if let Some(n) = s.max_nodes {
-            o.max_nodes = n;
+            o.max_nodes = capped(
+                "solver.max_nodes",
+                n,
+                (3, MAX_NODES),
+                "node cap of every BVP solve, e.g. 20000",
+            )?;
         }
         if let Some(start) = &s.start {
             o.start = match start.as_str() {
@@ -1187,20 +2027,41 @@ impl ProblemFile {
                     return Err(ConfigError::Invalid {
                         field: "solver.start".into(),
                         message: format!(
-                            "unknown start \"{other}\"; use \"auto\" (default), \"desired\", \
-                             \"desired-gamma-from-zero\" or \"segment\""
+                            "unknown start {:?}; use \"auto\" (default), \"desired\", \
+                             \"desired-gamma-from-zero\" or \"segment\"",
+                            clip(other)
                         ),
                     })
                 }
             };
+            let from_desired = matches!(
+                o.start,
+                StartStrategy::Desired | StartStrategy::DesiredGammaFromZero
+            );
+            if from_desired && gamma == 0.0 {
+                return Err(ConfigError::Invalid {
+                    field: "solver.start".into(),
+                    message: format!(
+                        "start = {start:?} starts from the desired path, which is not part of \
+                         the cost with cost.gamma = 0; use \"auto\" or \"segment\", or a \
+                         gamma > 0"
+                    ),
+                });
+            }
         }
         if o.max_nodes <= o.initial_intervals {
+            // Only reachable with both keys given (the default max_nodes exceeds the cap on
+            // initial_intervals); suggest a value above initial_intervals within the cap.
+            let suggestion = SolveOptions::default()
+                .max_nodes
+                .max(2 * (o.initial_intervals + 1))
+                .min(MAX_NODES);
             return Err(ConfigError::OutOfRange {
                 field: "solver.max_nodes".into(),
                 value: o.max_nodes.to_string(),
                 requirement: format!(
                     "must exceed solver.initial_intervals = {} (the initial mesh has that \
-                     many intervals plus one nodes); e.g. 20000",
+                     many intervals plus one nodes); e.g. {suggestion}",
                     o.initial_intervals
                 ),
             });
@@ -1231,7 +2092,7 @@ fn problem_error(e: ProblemError) -> ConfigError {
             requirement,
         } => ConfigError::OutOfRange {
             field: path(field),
-            value: value.to_string(),
+            value: Num(value).to_string(),
             requirement: requirement.to_string(),
         },
         ProblemError::OffEllipsoid {
@@ -1244,6 +2105,10 @@ fn problem_error(e: ProblemError) -> ConfigError {
             mismatch,
             projection,
         },
+        ProblemError::ZeroOmegaB => ConfigError::ZeroVector {
+            field: "boundary.omega_b".into(),
+            why: "Suslov's equations conserve omega_a's kinetic energy, so no motion reaches 0",
+        },
         ProblemError::ZeroOmegaA => ConfigError::ZeroVector {
             field: "boundary.omega_a".into(),
             why: "it fixes the kinetic energy of the motion",
@@ -1251,13 +2116,17 @@ fn problem_error(e: ProblemError) -> ConfigError {
         ProblemError::EnergyOutOfRange { level } => ConfigError::Invalid {
             field: "boundary.omega_a".into(),
             message: format!(
-                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a positive \
-                 finite number in f64; rescale omega_a or body.inertia"
+                "twice its kinetic energy <omega_a, I omega_a> = {level:e} is not a normal \
+                 positive f64; rescale omega_a or body.inertia"
             ),
         },
         ProblemError::EmptyInterval { t0, b } => ConfigError::TerminalTime {
             field: "boundary.terminal_time".into(),
-            message: format!("terminal time {b} must be greater than boundary.t0 = {t0}"),
+            message: format!(
+                "terminal time {} must be greater than boundary.t0 = {}",
+                Num(b),
+                Num(t0)
+            ),
         },
     }
 }

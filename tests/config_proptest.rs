@@ -80,7 +80,7 @@ fn valid_entries() -> impl Strategy<Value = Entries> {
     let solver = (
         1e-10..1e-4f64,
         1e-8..1e-3f64,
-        1e-5..1e-1f64,
+        1e-4..1.0f64,
         2usize..500,
         1000usize..50_000,
     );
@@ -110,7 +110,8 @@ fn valid_entries() -> impl Strategy<Value = Entries> {
                 ("desired", "b_d", f(bd)),
                 ("solver", "tolerance", f(tol)),
                 ("solver", "continuation_tolerance", f(ctol)),
-                ("solver", "beta_m", f(bm)),
+                // beta_m as a fraction of beta (it must lie in [1e-8 beta, beta]).
+                ("solver", "beta_m", f(bm * be)),
                 ("solver", "initial_intervals", Some(ni.to_string())),
                 ("solver", "max_nodes", Some(nmax.to_string())),
             ]
@@ -163,6 +164,7 @@ proptest! {
             Err(e) => {
                 let msg = e.to_string();
                 prop_assert!(!msg.trim().is_empty(), "{text}");
+                prop_assert!(msg.len() <= 1000, "{} characters: {msg}", msg.len());
                 let field = e.field();
                 prop_assert!(field.is_some(), "no field in {msg:?} for\n{text}");
                 let field = field.unwrap_or_default();

@@ -53,6 +53,7 @@ use num_dual::Dual3;
 pub use num_dual::DualNum;
 
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
+use super::problem::ENERGY_REL_TOL;
 use super::SuslovError;
 
 /// Scalars the paths are evaluated on: `f64` and the `num-dual` dual numbers over `f64`.
@@ -294,8 +295,14 @@ pub struct ProjectedSegment {
 impl ProjectedSegment {
     /// The path from `omega_a` at `t = a` to `omega_b` at `t = b > a` on `E(I, Ω_a)`.
     ///
-    /// Errors if `a >= b`, if `Ω_b` is off `E` by more than `1e-12` relative, or if the segment
-    /// passes through (or within `1e-8·|Ω_a|` of) the origin, where the projection is undefined.
+    /// `Ω_b` may be off `E` by up to [`ENERGY_REL_TOL`] (relative energy), the tolerance
+    /// [`SuslovProblem::validate`](super::problem::SuslovProblem::validate) allows; the path
+    /// ends at its radial projection onto `E` (a change of at most ~`ENERGY_REL_TOL / 2`
+    /// relative), so that it lies on `E` everywhere. `Ω_b = Ω_a` gives the constant path.
+    ///
+    /// Errors if `a >= b`, if `Ω_b` is off `E` by more than `ENERGY_REL_TOL`, or if the
+    /// segment passes through (or within `1e-8·|Ω_a|` of) the origin, where the projection
+    /// is undefined ([`SuslovError::SegmentThroughOrigin`]).
     pub fn new(
         inertia: Inertia,
         omega_a: Vector3<f64>,
@@ -309,16 +316,23 @@ impl ProjectedSegment {
             });
         }
         let ellipsoid = EnergyEllipsoid::through(inertia, &omega_a)?;
-        ellipsoid.check_on("Omega_b", &omega_b, 1e-12)?;
-        // Distance from the origin to the segment.
-        let d = omega_b - omega_a;
-        let s = (-omega_a.dot(&d) / d.norm_squared()).clamp(0.0, 1.0);
-        let closest = (omega_a + d * s).norm();
-        if closest.is_nan() || closest <= 1e-8 * omega_a.norm() {
-            return Err(SuslovError::InvalidInput {
-                what: format!(
-                    "the segment from Omega_a to Omega_b passes within {closest:e} of the origin; its radial projection is undefined (antipodal end points?)"
-                ),
+        ellipsoid.check_on("Omega_b", &omega_b, ENERGY_REL_TOL)?;
+        let omega_b = ellipsoid.project(&omega_b)?;
+        // Distance from the origin to the segment, computed in units of the larger end
+        // point (no overflow; no 0/0 when the end points coincide).
+        let scale = omega_a.amax().max(omega_b.amax());
+        let (a_s, b_s) = (omega_a / scale, omega_b / scale);
+        let d = b_s - a_s;
+        let along = if d.norm_squared() > 0.0 {
+            (-a_s.dot(&d) / d.norm_squared()).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let closest = (a_s + d * along).norm();
+        if closest <= 1e-8 * a_s.norm() {
+            return Err(SuslovError::SegmentThroughOrigin {
+                closest: closest * scale,
+                size: omega_a.norm(),
             });
         }
         Ok(Self {
@@ -422,6 +436,22 @@ impl SampledPath {
             let hn = h[n - 1];
             end.0[c] = y[n];
             end.1[c] = b + 2.0 * cc * hn + 3.0 * d * hn * hn;
+        }
+        // Differences of huge values, or samples very close in time, overflow f64.
+        let bad = coeffs
+            .iter()
+            .position(|c| c.iter().flatten().any(|x| !x.is_finite()))
+            .or_else(|| (end.0.iter().chain(&end.1).any(|x| !x.is_finite())).then_some(n - 1));
+        if let Some(k) = bad {
+            return invalid(format!(
+                "the cubic spline through the samples overflows f64 between sample {k} (t = \
+                 {:e}) and sample {} (t = {:e}): the values are too large or too close in \
+                 time; rescale them (only their directions matter after the projection) or \
+                 space them further apart",
+                times[k],
+                k + 1,
+                times[k + 1]
+            ));
         }
         Ok(Self {
             knots: times.to_vec(),
@@ -657,6 +687,23 @@ mod tests {
         // Antipodal end points: the segment crosses 0.
         assert!(
             ProjectedSegment::new(Inertia::paper(), p.omega_a(), -p.omega_a(), 0.0, 1.0).is_err()
+        );
+        // Within ENERGY_REL_TOL of E: accepted, and the path ends on E.
+        let off = Vector3::new(1.0, 2.0, 0.0) * (1.0 + 5e-10f64).sqrt();
+        let om_a = Vector3::new(3.0, 0.0, 0.0);
+        let seg = ProjectedSegment::new(Inertia::paper(), om_a, off, 0.0, 1.0).unwrap();
+        let e = EnergyEllipsoid::through(Inertia::paper(), &om_a).unwrap();
+        assert!(e.relative_mismatch(&seg.value(1.0)).abs() < 1e-15);
+        assert!((seg.value(1.0) - off).norm() < 1e-9);
+        // Omega_b = Omega_a: the constant path.
+        let seg = ProjectedSegment::new(Inertia::paper(), om_a, om_a, 0.0, 1.0).unwrap();
+        assert_eq!(seg.jet(0.5).value, om_a);
+        assert_eq!(seg.jet(0.5).d1, Vector3::zeros());
+        // Nearly opposite: the distance in the error is finite.
+        let err = ProjectedSegment::new(Inertia::paper(), om_a, -om_a, 0.0, 1.0).unwrap_err();
+        assert!(
+            matches!(err, SuslovError::SegmentThroughOrigin { closest, .. } if closest == 0.0),
+            "{err}"
         );
         // Omega_b off E.
         assert!(ProjectedSegment::new(

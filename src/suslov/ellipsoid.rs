@@ -59,6 +59,11 @@ impl Inertia {
     }
 }
 
+/// `x` is a finite `f64` above the subnormal range (full precision).
+fn is_normal_positive(x: f64) -> bool {
+    x.is_finite() && x >= f64::MIN_POSITIVE
+}
+
 /// Kinetic energy `T = ½⟨IΩ, Ω⟩`.
 pub fn kinetic_energy(inertia: &Inertia, omega: &Vector3<f64>) -> f64 {
     0.5 * inertia.apply(omega).dot(omega)
@@ -73,10 +78,12 @@ pub struct EnergyEllipsoid {
 }
 
 impl EnergyEllipsoid {
-    /// The ellipsoid through `omega_a`; `omega_a` must be finite and non-zero.
+    /// The ellipsoid through `omega_a`; `omega_a` must be finite and non-zero, and its level
+    /// `⟨Ω_a, IΩ_a⟩` a normal `f64` (neither overflowing nor in the subnormal range, where it
+    /// has too few significant bits for the relative energy checks).
     pub fn through(inertia: Inertia, omega_a: &Vector3<f64>) -> Result<Self, SuslovError> {
         let level = inertia.apply(omega_a).dot(omega_a);
-        if !(level.is_finite() && level > 0.0) {
+        if !is_normal_positive(level) {
             return Err(SuslovError::InvalidInput {
                 what: format!(
                     "Omega_a = {:?} must be finite and non-zero to define an energy ellipsoid",
@@ -109,28 +116,55 @@ impl EnergyEllipsoid {
 
     /// Radial projection `v_∥ = sqrt(⟨Ω_a, IΩ_a⟩/⟨v, Iv⟩) v` (paper eq. `eq_par_proj`).
     ///
-    /// Errors for `v = 0` or a non-finite `v`, where the ray is undefined.
+    /// Computed directly when `⟨v, Iv⟩` and the ratio are normal `f64`s, otherwise on
+    /// `v / max|v_i|` (the projection only depends on the ray), so that a huge or tiny `v`
+    /// (e.g. `1e200`, whose `⟨v, Iv⟩` overflows) is still projected. Errors for `v = 0` or a
+    /// non-finite `v`, where the ray is undefined, and if the projection itself overflows.
     pub fn project(&self, v: &Vector3<f64>) -> Result<Vector3<f64>, SuslovError> {
+        let fail = |reason| {
+            Err(SuslovError::Projection {
+                v: [v[0], v[1], v[2]],
+                reason,
+            })
+        };
+        if !v.iter().all(|x| x.is_finite()) {
+            return fail("the vector is not finite");
+        }
+        let m = v.amax();
+        if m == 0.0 {
+            return fail("the zero vector spans no ray");
+        }
         let q = self.inertia.apply(v).dot(v);
-        if !v.iter().all(|x| x.is_finite()) || !q.is_finite() {
-            return Err(SuslovError::Projection {
-                v: [v[0], v[1], v[2]],
-                reason: "the vector is not finite",
-            });
+        let ratio = self.level / q;
+        if is_normal_positive(q) && is_normal_positive(ratio) {
+            return Ok(v * ratio.sqrt());
         }
-        if q <= 0.0 {
-            return Err(SuslovError::Projection {
-                v: [v[0], v[1], v[2]],
-                reason: "the zero vector spans no ray",
-            });
+        let u = v / m;
+        let q = self.inertia.apply(&u).dot(&u);
+        let p = u * (self.level.sqrt() / q.sqrt());
+        if p.iter().all(|x| x.is_finite()) {
+            Ok(p)
+        } else {
+            fail("its projection overflows f64")
         }
-        Ok(v * (self.level / q).sqrt())
     }
 
-    /// Generic radial projection used by the dual-number path code (no checks: a zero
-    /// vector gives non-finite output).
+    /// Generic radial projection used by the dual-number path code, scaled like
+    /// [`EnergyEllipsoid::project`] when `⟨v, Iv⟩` over- or underflows (by the largest
+    /// `|v_i|` at the point, a constant, so the derivatives stay exact). No other checks: a
+    /// zero vector gives non-finite output.
     pub(crate) fn project_generic<D: Scalar>(&self, v: [D; 3]) -> [D; 3] {
-        let scale = (self.inertia.quadratic_form(&v).recip() * self.level).sqrt();
+        let q = self.inertia.quadratic_form(&v);
+        let m = v.iter().map(|x| x.re().abs()).fold(0.0, f64::max);
+        if !(is_normal_positive(q.re()) && is_normal_positive(self.level / q.re()))
+            && m > 0.0
+            && m.is_finite()
+        {
+            let u = [v[0] / m, v[1] / m, v[2] / m];
+            let scale = self.inertia.quadratic_form(&u).sqrt().recip() * self.level.sqrt();
+            return [u[0] * scale, u[1] * scale, u[2] * scale];
+        }
+        let scale = (q.recip() * self.level).sqrt();
         [v[0] * scale, v[1] * scale, v[2] * scale]
     }
 
@@ -211,8 +245,23 @@ mod tests {
         ));
         assert!(e.project(&Vector3::new(f64::NAN, 1.0, 0.0)).is_err());
         assert!(e.project(&Vector3::new(f64::INFINITY, 1.0, 0.0)).is_err());
-        // Overflowing quadratic form is reported, not silently projected to 0.
-        assert!(e.project(&Vector3::new(1e200, 0.0, 0.0)).is_err());
+        // An overflowing (or underflowing) quadratic form is projected on the scaled ray,
+        // not reported as "not finite" or projected to 0 or NaN.
+        assert_eq!(
+            e.project(&Vector3::new(1e200, 0.0, 0.0)).unwrap(),
+            Vector3::new(5.0, 0.0, 0.0)
+        );
+        let p = e.project(&Vector3::new(1e308, -1e308, 1e308)).unwrap();
+        assert_relative_eq!(e.relative_mismatch(&p), 0.0, epsilon = 1e-15);
+        assert_relative_eq!(p.normalize(), Vector3::new(1.0, -1.0, 1.0).normalize());
+        let p = e.project(&Vector3::new(1e-320, 0.0, 0.0)).unwrap();
+        assert_eq!(p, Vector3::new(5.0, 0.0, 0.0));
+        // The generic (dual-number) projection agrees, derivatives included.
+        let v = Vector3::new(3e300, -1e300, 2e300);
+        let g = e.project_generic([v[0], v[1], v[2]]);
+        assert_relative_eq!(Vector3::from(g), e.project(&v).unwrap(), epsilon = 1e-14);
+        let small = e.project_generic([3e-300, -1e-300, 2e-300]);
+        assert_relative_eq!(Vector3::from(small), Vector3::from(g), epsilon = 1e-14);
     }
 
     #[test]

@@ -93,6 +93,19 @@ pub enum SuslovError {
         /// The radial projection, formatted.
         projection: String,
     },
+    /// The straight segment between two end points passes (nearly) through the origin,
+    /// where the radial projection onto `E` is undefined.
+    #[error(
+        "the segment from Omega_a to Omega_b passes within {closest:.3e} of the origin \
+         (|Omega_a| = {size:.3e}): its end points are (nearly) opposite, and the radial \
+         projection is undefined at the origin"
+    )]
+    SegmentThroughOrigin {
+        /// Distance from the origin to the segment.
+        closest: f64,
+        /// `|Ω_a|`, the scale.
+        size: f64,
+    },
     /// Property 3 violated: `IΩ̇ − (IΩ) × Ω ≈ 0`, so `ξ_p` is undefined.
     #[error("Property 3 violated: |I Om_dot - (I Om) x Om| = {norm:e} is ~0 (scale {scale:e}); xi_p is undefined")]
     EulerSolution {

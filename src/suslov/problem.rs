@@ -141,13 +141,21 @@ pub enum ProblemError {
         /// The projection to use instead.
         projection: [f64; 3],
     },
+    /// `Ω_b = 0`: not on any energy ellipsoid, and with no radial projection.
+    #[error(
+        "omega_b must be nonzero: Suslov's equations conserve the kinetic energy of omega_a, \
+         so no motion reaches 0"
+    )]
+    ZeroOmegaB,
     /// `Ω_a = 0`: the ellipsoid degenerates.
     #[error("omega_a must be nonzero (it fixes the kinetic energy of the motion)")]
     ZeroOmegaA,
-    /// `⟨Ω_a, IΩ_a⟩` overflows or underflows `f64` (the ellipsoid is not representable).
+    /// `⟨Ω_a, IΩ_a⟩` overflows `f64` or falls below its normal range (the ellipsoid is not
+    /// representable to full precision).
     #[error(
-        "omega_a's kinetic energy level <omega_a, I omega_a> = {level:e} is not a positive \
-         finite f64 (over- or underflow); rescale omega_a or the inertia"
+        "omega_a's kinetic energy level <omega_a, I omega_a> = {level:e} is not a normal \
+         positive f64 (overflow, or below 2.2e-308: too few significant bits); rescale \
+         omega_a or the inertia"
     )]
     EnergyOutOfRange {
         /// `⟨Ω_a, IΩ_a⟩` as computed.
@@ -224,17 +232,21 @@ impl SuslovProblem {
             return Err(ProblemError::ZeroOmegaA);
         }
         let level = self.inertia.apply(&self.omega_a).dot(&self.omega_a);
-        if !(level.is_finite() && level > 0.0) {
+        if !(level.is_finite() && level >= f64::MIN_POSITIVE) {
             return Err(ProblemError::EnergyOutOfRange { level });
         }
         let b = self.terminal.initial();
         if b <= self.t0 {
             return Err(ProblemError::EmptyInterval { t0: self.t0, b });
         }
+        if self.omega_b.iter().all(|x| *x == 0.0) {
+            return Err(ProblemError::ZeroOmegaB);
+        }
         let e = self.ellipsoid();
         let mismatch = e.relative_mismatch(&self.omega_b);
         let on_ellipsoid = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN too
         if !on_ellipsoid {
+            // Finite and nonzero (checked above): the projection exists.
             let projection = e
                 .project(&self.omega_b)
                 .map(|v| [v[0], v[1], v[2]])
