@@ -65,6 +65,8 @@ pub enum AppEvent<'a> {
     },
     /// A file was written.
     Wrote(&'a Path),
+    /// The problem file is valid but something in it is probably not what was meant.
+    Warning(&'a config::ConfigWarning),
 }
 
 /// Errors that stop a job (per-case solver failures do not: they are recorded).
@@ -389,13 +391,12 @@ pub fn run_solve(
     out: &Path,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Summary, AppError> {
-    let loaded = config::load(config_path)?;
-    let text = std::fs::read(config_path).map_err(|source| ReportError::Io {
-        path: config_path.to_path_buf(),
-        source,
-    })?;
+    let (loaded, text) = config::load_with_text(config_path)?;
+    for w in &loaded.warnings {
+        events(AppEvent::Warning(w));
+    }
     let mut dir = OutputDir::open(out)?;
-    let copy = dir.write("problem.toml", &text)?;
+    let copy = dir.write("problem.toml", text.as_bytes())?;
     events(AppEvent::Wrote(&copy));
     let mut case = run_case(
         &loaded.name,
@@ -409,6 +410,16 @@ pub fn run_solve(
         "problem_file".into(),
         serde_json::json!(config_path.display().to_string()),
     );
+    if !loaded.warnings.is_empty() {
+        case.extra.insert(
+            "warnings".into(),
+            serde_json::json!(loaded
+                .warnings
+                .iter()
+                .map(|w| serde_json::json!({"field": w.field(), "message": w.to_string()}))
+                .collect::<Vec<_>>()),
+        );
+    }
     let summary = Summary { cases: vec![case] };
     finish(dir, &summary, events)?;
     Ok(summary)
@@ -422,6 +433,8 @@ pub struct CaseJob {
     pub problem: SuslovProblem,
     /// Solver options.
     pub options: SolveOptions,
+    /// What the problem file's checks had to say (empty for the paper's cases).
+    pub warnings: Vec<config::ConfigWarning>,
 }
 
 /// The cases of `suslov certify [CONFIG]` and `suslov controllability --along`: the problem
@@ -429,9 +442,11 @@ pub struct CaseJob {
 /// `tolerance` overrides the final BVP tolerance (the mesh the certificate runs on).
 pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<CaseJob>, AppError> {
     if let Some(t) = tolerance {
-        if !(t > 0.0 && t.is_finite()) {
+        let (lo, hi) = config::TOLERANCE_RANGE;
+        if !(t.is_finite() && (lo..=hi).contains(&t)) {
             return Err(AppError::InvalidArgument(format!(
-                "--tolerance must be a positive number (e.g. 1e-8), got {t}"
+                "--tolerance must be a number in [{lo:e}, {hi:e}] (as solver.tolerance in a \
+                 problem file; e.g. 1e-8), got {t}"
             )));
         }
     }
@@ -442,6 +457,7 @@ pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<Ca
                 name: loaded.name,
                 problem: loaded.problem,
                 options: loaded.options,
+                warnings: loaded.warnings,
             }]
         }
         None => paper::CASES
@@ -450,6 +466,7 @@ pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<Ca
                 name: c.name.to_string(),
                 problem: paper::problem(c.eta),
                 options: SolveOptions::default(),
+                warnings: Vec::new(),
             })
             .collect(),
     };
@@ -481,6 +498,9 @@ pub fn run_certify(
     let mut reports = Vec::new();
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
+        for w in &job.warnings {
+            events(AppEvent::Warning(w));
+        }
         let clock = Instant::now();
         let solved = solve::solve(&job.problem, &job.options, &mut |e| {
             events(AppEvent::Solve(e))
@@ -548,6 +568,9 @@ pub fn run_rank_along(
     let mut all_accessible = true;
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
+        for w in &job.warnings {
+            events(AppEvent::Warning(w));
+        }
         let sol = match solve::solve(&job.problem, &job.options, &mut |e| {
             events(AppEvent::Solve(e))
         }) {

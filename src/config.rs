@@ -141,8 +141,14 @@ pub const MAX_INITIAL_INTERVALS: usize = 10_000;
 /// corrections at the round-off of the collocation system: measured, 1e-13 failed on the
 /// paper's η = 1 and the segment example (Newton or mesh passes exhausted), 1e-12 converged
 /// on 2 of 4 examples, 1e-11 on all. Above 1e-3 the estimate stops being an error bound on
-/// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); the paper uses 1e-8.
-pub const TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-3);
+/// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); and a solve is called
+/// converged only at a tolerance of at most [`crate::suslov::verify::TOL_MAX`] = 1e-4 (the
+/// a-posteriori checks, README "What 'converged' means"), so the range ends there: a file
+/// that passes validation can converge. The paper uses 1e-8.
+pub const TOLERANCE_RANGE: (f64, f64) = (
+    crate::suslov::verify::TOL_MIN,
+    crate::suslov::verify::TOL_MAX,
+);
 
 /// Allowed `solver.continuation_tolerance`: the same floor as [`TOLERANCE_RANGE`]; the
 /// continuation only has to follow the path, but at 1e-1 the paper's analytic start already
@@ -157,8 +163,9 @@ pub const CONTINUATION_TOLERANCE_RANGE: (f64, f64) = (1e-12, 1e-2);
 /// rejects values no start can use.
 pub const BETA_M_MIN_RATIO: f64 = 1e-8;
 
+use crate::echo::clip_to;
 /// Longest piece of input echoed in a message (characters; longer ones end in `…`).
-pub const MAX_ECHO_CHARS: usize = 200;
+pub use crate::echo::MAX_ECHO_CHARS;
 
 /// The parsed file, before any check beyond the TOML types. Every field is optional here so
 /// that a missing one is reported with its full path by [`ProblemFile::build`].
@@ -781,13 +788,6 @@ fn clip(s: &str) -> String {
     clip_to(s, MAX_ECHO_CHARS)
 }
 
-fn clip_to(s: &str, max_chars: usize) -> String {
-    match s.char_indices().nth(max_chars) {
-        Some((end, _)) => format!("{}…", &s[..end]),
-        None => s.to_string(),
-    }
-}
-
 /// The `toml` crate's message with every echoed piece of input capped: it shows the source
 /// line, a caret line as long as the offending span, and quotes keys and strings in the
 /// message itself. Each quoted piece (between backticks or double quotes) keeps at most
@@ -816,6 +816,12 @@ fn clip_toml_message(s: &str) -> String {
 /// file of at most [`MAX_PROBLEM_FILE_BYTES`] bytes of UTF-8 (a leading byte order mark is
 /// skipped).
 pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
+    load_with_text(path).map(|(loaded, _)| loaded)
+}
+
+/// [`load`], and the file's text as it was read and checked (without a byte order mark), for
+/// a copy of the input next to the results: one bounded read, so the copy is what was solved.
+pub fn load_with_text(path: &Path) -> Result<(LoadedProblem, String), ConfigError> {
     let file_error = |problem| ConfigError::File {
         path: path.to_path_buf(),
         problem,
@@ -834,10 +840,11 @@ pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
         None => DefaultName::Fixed("problem".into()),
     };
     let base = path.parent().unwrap_or(Path::new(""));
-    parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
+    let loaded = parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
         path: path.to_path_buf(),
         source: Box::new(e),
-    })
+    })?;
+    Ok((loaded, text))
 }
 
 /// Check a problem given as TOML text (case name default `"problem"`; a samples file is
@@ -1947,8 +1954,8 @@ impl ProblemFile {
                 "solver.tolerance",
                 v,
                 TOLERANCE_RANGE,
-                "below, f64 round-off keeps Newton from converging; above, the error \
-                 estimate is no longer an error bound (e.g. 1e-8)",
+                "below, f64 round-off keeps Newton from converging; above, no solution can \
+                 pass its a-posteriori checks (e.g. 1e-8)",
             )?;
         }
         if let Some(v) = s.continuation_tolerance {

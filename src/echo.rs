@@ -5,12 +5,20 @@
 //! argument); echoing it whole floods the terminal and hides the message.
 
 /// Characters of input shown at most.
-pub const ECHO_MAX_CHARS: usize = 200;
+pub const MAX_ECHO_CHARS: usize = 200;
 
-/// `text` quoted (Rust debug syntax), cut after [`ECHO_MAX_CHARS`] characters with `…` and the
+/// At most `max_chars` characters of `s`, with `…` if cut.
+pub fn clip_to(s: &str, max_chars: usize) -> String {
+    match s.char_indices().nth(max_chars) {
+        Some((end, _)) => format!("{}…", &s[..end]),
+        None => s.to_string(),
+    }
+}
+
+/// `text` quoted (Rust debug syntax), cut after [`MAX_ECHO_CHARS`] characters with `…` and the
 /// total length.
 pub fn echo(text: &str) -> String {
-    match text.char_indices().nth(ECHO_MAX_CHARS) {
+    match text.char_indices().nth(MAX_ECHO_CHARS) {
         Some((cut, _)) => format!(
             "{:?}… ({} characters in all)",
             &text[..cut],
@@ -29,7 +37,7 @@ mod tests {
         assert_eq!(echo("1,2"), "\"1,2\"");
         let long = "é".repeat(10_000);
         let e = echo(&long);
-        assert!(e.chars().count() < ECHO_MAX_CHARS + 40, "{e}");
+        assert!(e.chars().count() < MAX_ECHO_CHARS + 40, "{e}");
         assert!(e.ends_with("(10000 characters in all)"), "{e}");
     }
 }

@@ -305,6 +305,7 @@ impl Reporter {
                 }
                 self.line(format!("case {}: {}", r.name, r.message));
             }
+            AppEvent::Warning(w) => self.line(format!("warning: {w}")),
             AppEvent::Wrote(path) => {
                 if self.verbose {
                     tracing::info!("wrote {}", path.display());

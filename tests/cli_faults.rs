@@ -331,7 +331,15 @@ fn interrupted_runs_leave_a_marked_directory_and_the_next_run_cleans_up() {
             code => {
                 interrupted += 1;
                 if signal != libc_sig::KILL {
-                    assert_eq!(code, Some(128 + signal), "{got:?}");
+                    // Handled: exit 128 + n, temporaries removed. A signal that arrives before
+                    // the handlers are installed (the first microseconds, before anything is
+                    // written) ends the process by the default action.
+                    use std::os::unix::process::ExitStatusExt;
+                    if code.is_none() {
+                        assert_eq!(status.signal(), Some(signal), "{status:?}");
+                    } else {
+                        assert_eq!(code, Some(128 + signal), "{got:?}");
+                    }
                     assert!(temporaries(&out).is_empty(), "{got:?}");
                 }
                 // The lock may have been taken before the directory was marked; otherwise
@@ -459,4 +467,37 @@ fn controllability_arguments_are_checked_before_the_work() {
     assert_eq!(code, Some(0));
     assert!(stdout.contains("No state tested lies on M"), "{stdout}");
     assert!(!stdout.contains("has drift"), "{stdout}");
+}
+
+#[test]
+fn a_body_no_rigid_body_has_is_solved_with_a_warning_on_stderr_and_in_the_summary() {
+    let dir = scratch("triangle");
+    let text = std::fs::read_to_string(example("no_tracking.toml")).unwrap();
+    let inertia = text
+        .lines()
+        .find(|l| l.trim_start().starts_with("inertia"))
+        .expect("an inertia line")
+        .to_string();
+    let config = dir.join("flat.toml");
+    // Same energy as omega_a = [3, 0, 0] for I = diag(1, 1, 5): 4 + 0 + 5 = 9.
+    let text = text
+        .replace(&inertia, "inertia = [1.0, 1.0, 5.0]")
+        .replace("omega_b = [2.0, 1.0, 1.0]", "omega_b = [2.0, 0.0, 1.0]");
+    std::fs::write(&config, text).unwrap();
+    let out = dir.join("out");
+    let run = Command::new(BIN)
+        .arg("solve")
+        .arg(&config)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("warning: `body.inertia` = [1, 1, 5]"),
+        "{stderr}"
+    );
+    let summary = std::fs::read_to_string(out.join("summary.json")).unwrap();
+    assert!(summary.contains("\"warnings\""), "{summary}");
+    assert!(summary.contains("\"field\": \"body.inertia\""), "{summary}");
 }

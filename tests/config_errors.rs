@@ -422,7 +422,7 @@ fn solver_options_are_checked() {
         &with_line("tolerance =", "tolerance = 0.0"),
         "solver.tolerance",
     );
-    assert_contains(&msg, &["must lie between 1e-12 and 1e-3"]);
+    assert_contains(&msg, &["must lie between 1e-12 and 1e-4"]);
     let (_, msg) = error(
         &with_line("tolerance =", "initial_intervals = 1"),
         "solver.initial_intervals",

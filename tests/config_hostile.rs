@@ -416,17 +416,17 @@ fn tolerances_outside_their_sensible_range_are_rejected() {
         (
             "tolerance = 1.0",
             "solver.tolerance",
-            "between 1e-12 and 1e-3",
+            "between 1e-12 and 1e-4",
         ),
         (
             "tolerance = 1e-2",
             "solver.tolerance",
-            "between 1e-12 and 1e-3",
+            "between 1e-12 and 1e-4",
         ),
         (
             "tolerance = 1e-16",
             "solver.tolerance",
-            "between 1e-12 and 1e-3",
+            "between 1e-12 and 1e-4",
         ),
         (
             "continuation_tolerance = 0.5",
@@ -448,10 +448,12 @@ fn tolerances_outside_their_sensible_range_are_rejected() {
     .unwrap();
     assert_eq!((p.options.tol, p.options.continuation_tol), (1e-12, 1e-2));
     let p = config::from_toml_str(&with_solver(
-        "tolerance = 1e-3\ncontinuation_tolerance = 1e-12",
+        "tolerance = 1e-4\ncontinuation_tolerance = 1e-12",
     ))
     .unwrap();
-    assert_eq!((p.options.tol, p.options.continuation_tol), (1e-3, 1e-12));
+    assert_eq!((p.options.tol, p.options.continuation_tol), (1e-4, 1e-12));
+    let (_, msg) = error(&with_solver("tolerance = 1e-3"), "solver.tolerance");
+    assert_contains(&msg, &["between 1e-12 and 1e-4"]);
 }
 
 #[test]

@@ -47,12 +47,12 @@ impl Status {
                  exceeds the tolerance; refine the mesh or enable mesh adaptation."
             }
             Status::MaxNodes => {
-                "The maximum number of mesh nodes would be exceeded; raise `max_nodes`, loosen \
-                 `tol`, or provide a better initial guess/mesh."
+                "The maximum number of mesh nodes would be exceeded; allow more nodes, loosen the \
+                 tolerance, or provide a better initial guess/mesh."
             }
             Status::MaxMeshPasses => {
                 "The maximum number of mesh passes was reached before the tolerance was met; \
-                 raise `max_mesh_passes` or provide a better initial mesh."
+                 allow more mesh passes or provide a better initial mesh."
             }
             Status::SingularJacobian => {
                 "A singular Jacobian was encountered when solving the collocation system; the \
@@ -68,7 +68,7 @@ impl Status {
             }
             Status::BcTolNotMet => {
                 "The solution meets the error tolerance but the boundary conditions do not \
-                 meet `bc_tol`."
+                 meet their tolerance."
             }
         }
     }
