@@ -314,10 +314,10 @@ fn interrupted_runs_leave_a_marked_directory_and_the_next_run_cleans_up() {
             .spawn()
             .unwrap();
         std::thread::sleep(*moment);
-        let _ = Command::new("kill")
-            .arg(format!("-{signal}"))
-            .arg(child.id().to_string())
-            .status();
+        // SAFETY: kill(2) on our own child's pid, which has not been waited for (so the pid
+        // cannot have been reused).
+        let sent = unsafe { libc::kill(child.id() as libc::pid_t, signal) };
+        assert_eq!(sent, 0, "kill failed");
         let status = child.wait().unwrap();
         let got = names(&out);
         let complete =
@@ -342,12 +342,16 @@ fn interrupted_runs_leave_a_marked_directory_and_the_next_run_cleans_up() {
                     }
                     assert!(temporaries(&out).is_empty(), "{got:?}");
                 }
-                // The lock may have been taken before the directory was marked; otherwise
-                // the mark must be there.
-                assert!(
-                    got.is_empty() || got.contains(&"INCOMPLETE".to_string()),
-                    "interrupted (signal {signal}) but not marked: {got:?}"
-                );
+                // Marked, or empty (stopped before the mark), or complete (stopped after the
+                // mark was removed, on the way out): never an unmarked partial directory.
+                if complete {
+                    assert_complete_run_of(&out, &reference, "segment");
+                } else {
+                    assert!(
+                        got.is_empty() || got.contains(&"INCOMPLETE".to_string()),
+                        "interrupted (signal {signal}) but not marked: {got:?}"
+                    );
+                }
             }
         }
     }
@@ -358,12 +362,12 @@ fn interrupted_runs_leave_a_marked_directory_and_the_next_run_cleans_up() {
     assert_complete_run_of(&out, &reference, "segment");
 }
 
-/// Signal numbers (Linux; the same on the BSDs and macOS for these three).
+/// The signals sent.
 #[cfg(unix)]
 mod libc_sig {
-    pub const INT: i32 = 2;
-    pub const KILL: i32 = 9;
-    pub const TERM: i32 = 15;
+    pub const INT: i32 = libc::SIGINT;
+    pub const KILL: i32 = libc::SIGKILL;
+    pub const TERM: i32 = libc::SIGTERM;
 }
 
 #[test]
