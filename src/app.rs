@@ -732,7 +732,7 @@ pub fn run_rank_at_states(
                 )));
             }
             c::sample_states_on_m(&inertia, &om, a.samples, a.seed)
-                .map_err(|e| arg("--omega-a", e))?
+                .map_err(|e| arg("--omega-a with --inertia", e))?
         }
     };
     c::report_table(&inertia, &states, a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))

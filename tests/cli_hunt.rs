@@ -1,0 +1,131 @@
+//! Hostile inputs found by hand (issue #10, a later round), end to end through the binary:
+//! each test is one input that once hung, panicked or answered wrongly.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::time::{Duration, Instant};
+
+/// The binary under test; `SUSLOV_BIN` runs the suite against another build (to see a
+/// test fail on the build before its fix).
+fn bin() -> String {
+    std::env::var("SUSLOV_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_suslov").to_string())
+}
+
+#[allow(dead_code)]
+fn scratch(name: &str) -> PathBuf {
+    let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli_hunt_{name}"));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs the binary with a deadline: a run still going after `secs` is killed and the test
+/// fails (a hang is a defect, not a slow test).
+fn run(args: &[&str], secs: u64) -> Output {
+    let mut child = Command::new(bin())
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let start = Instant::now();
+    loop {
+        if child.try_wait().unwrap().is_some() {
+            return child.wait_with_output().unwrap();
+        }
+        if start.elapsed() > Duration::from_secs(secs) {
+            let _ = child.kill();
+            let out = child.wait_with_output().unwrap();
+            panic!(
+                "suslov {args:?} still running after {secs} s; stderr: {}",
+                String::from_utf8_lossy(&out.stderr)
+            );
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn extreme_moments_of_inertia_never_hang_the_rank_test() {
+    // I = 1e200 overflowed the generated fields to NaN, and the SVD of a NaN matrix never
+    // returned; the fields do not depend on the scale of I, which is now divided out.
+    for args in [
+        &[
+            "controllability",
+            "--inertia",
+            "1e200,1e200,1e200",
+            "--omega",
+            "5,0,0",
+            "--xi",
+            "0,1,0",
+        ][..],
+        &["controllability", "--inertia", "1e300,2e300,3e300"][..],
+    ] {
+        let o = run(args, 60);
+        assert_eq!(o.status.code(), Some(0), "{args:?}: {}", stderr(&o));
+        let table = String::from_utf8_lossy(&o.stdout);
+        assert!(
+            table.contains("rank V = 4 = dim M at all"),
+            "{args:?}: {table}"
+        );
+    }
+    // Moments 1e600 apart: no state of M is representable (the sampler rejected every draw
+    // forever); at one given state the fields overflow. Both are errors naming --inertia.
+    for args in [
+        &["controllability", "--inertia", "1e-300,1,1e300"][..],
+        &[
+            "controllability",
+            "--inertia",
+            "1e-300,1,1e300",
+            "--omega",
+            "5,0,0",
+            "--xi",
+            "0,1,0",
+        ][..],
+    ] {
+        let o = run(args, 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {e}");
+        assert!(
+            e.contains("--inertia") || e.contains("I = diag(1e-300, 1, 1e300)"),
+            "{args:?}: {e}"
+        );
+        assert!(
+            !e.contains("NaN") && !e.contains("inf") && e.len() < 1000,
+            "{args:?}: {e}"
+        );
+    }
+}
+
+#[test]
+fn a_subnormal_xi_is_not_called_zero_and_numbers_are_not_printed_in_full() {
+    // xi = 5e-324 was refused as "xi != 0" (its norm underflows); and `{}` of 1e300 or
+    // 5e-324 prints hundreds of digits.
+    let o = run(
+        &[
+            "controllability",
+            "--omega",
+            "5e-324,0,0",
+            "--xi",
+            "0,5e-324,0",
+        ],
+        60,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        !e.contains("xi != 0") && e.contains("5e-324") && e.len() < 600,
+        "{e}"
+    );
+    let o = run(
+        &["controllability", "--omega", "1e300,0,0", "--xi", "0,1,0"],
+        60,
+    );
+    let table = String::from_utf8_lossy(&o.stdout);
+    assert!(table.lines().all(|l| l.len() < 400), "{table}");
+}
