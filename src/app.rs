@@ -207,6 +207,21 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// Every file a case may write below `sub` (whichever way it ends), for
+/// [`OutputDir::check_free`] before the work.
+fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
+    let mut names: Vec<String> = ["trajectory", "trajectory.unverified", "trajectory.partial"]
+        .iter()
+        .flat_map(|stem| [format!("{stem}.csv"), format!("{stem}.npy")])
+        .collect();
+    names.extend(
+        report::Figure::ALL
+            .iter()
+            .map(|f| format!("{}.{}", f.stem(), FigureFormat::Png.extension())),
+    );
+    names.into_iter().map(|n| sub.join(n)).collect()
+}
+
 /// Which outputs a case gets: only a verified solution looks final.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Outputs {
@@ -347,6 +362,12 @@ pub fn run_case(
 /// exactly this run's files afterwards). Returns the summary.
 pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary, AppError> {
     let mut dir = OutputDir::open(out)?;
+    dir.check_free(
+        paper::CASES
+            .iter()
+            .flat_map(|c| case_files(Path::new(c.name)))
+            .chain([report::SUMMARY_FILE.into()]),
+    )?;
     let mut summary = Summary::default();
     let options = SolveOptions::default();
     for PaperCase { name, eta, .. } in paper::CASES {
@@ -396,6 +417,11 @@ pub fn run_solve(
         events(AppEvent::Warning(w));
     }
     let mut dir = OutputDir::open(out)?;
+    dir.check_free(
+        case_files(Path::new(""))
+            .into_iter()
+            .chain(["problem.toml".into(), report::SUMMARY_FILE.into()]),
+    )?;
     let copy = dir.write("problem.toml", text.as_bytes())?;
     events(AppEvent::Wrote(&copy));
     let mut case = run_case(

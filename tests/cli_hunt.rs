@@ -11,7 +11,6 @@ fn bin() -> String {
     std::env::var("SUSLOV_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_suslov").to_string())
 }
 
-#[allow(dead_code)]
 fn scratch(name: &str) -> PathBuf {
     let d = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("cli_hunt_{name}"));
     let _ = std::fs::remove_dir_all(&d);
@@ -128,4 +127,65 @@ fn a_subnormal_xi_is_not_called_zero_and_numbers_are_not_printed_in_full() {
     );
     let table = String::from_utf8_lossy(&o.stdout);
     assert!(table.lines().all(|l| l.len() < 400), "{table}");
+}
+
+fn example(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(name)
+}
+
+#[test]
+fn a_users_file_in_the_output_directory_is_never_overwritten() {
+    // A `trajectory.csv` of the user's (no manifest lists it) was silently replaced by the
+    // run's; now the run refuses before solving, naming the file, and leaves it as it was.
+    let dir = scratch("users_file");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::write(out.join("trajectory.csv"), b"mine").unwrap();
+    let config = example("segment.toml");
+    let args = [
+        "solve",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "-q",
+    ];
+    let o = run(&args, 120);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("trajectory.csv") && e.contains("--out"), "{e}");
+    assert_eq!(std::fs::read(out.join("trajectory.csv")).unwrap(), b"mine");
+    assert!(!out.join("summary.json").exists());
+    // Moved away: the run goes through, and the next run replaces its own files.
+    std::fs::remove_file(out.join("trajectory.csv")).unwrap();
+    assert_eq!(run(&args, 120).status.code(), Some(0));
+    assert_eq!(run(&args, 120).status.code(), Some(0));
+}
+
+#[test]
+fn a_symbolic_link_in_the_output_directory_does_not_lead_the_run_out_of_it() {
+    // `DIR/eta_1 -> ../elsewhere`: the paper's first case was written through the link,
+    // outside DIR; a file `DIR/eta_1` failed only after the first case was solved.
+    let dir = scratch("symlink_case_dir");
+    let out = dir.join("out");
+    let elsewhere = dir.join("elsewhere");
+    std::fs::create_dir_all(&out).unwrap();
+    std::fs::create_dir_all(&elsewhere).unwrap();
+    std::os::unix::fs::symlink(&elsewhere, out.join("eta_1")).unwrap();
+    let o = run(&["paper", "--out", out.to_str().unwrap(), "-q"], 120);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("eta_1") && e.contains("--out"), "{e}");
+    assert_eq!(std::fs::read_dir(&elsewhere).unwrap().count(), 0);
+    let _ = std::fs::remove_file(out.join("eta_1"));
+    std::fs::write(out.join("eta_1"), b"mine").unwrap();
+    let start = Instant::now();
+    let o = run(&["paper", "--out", out.to_str().unwrap(), "-q"], 120);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(
+        start.elapsed() < Duration::from_secs(2),
+        "refused only after solving"
+    );
+    assert_eq!(std::fs::read(out.join("eta_1")).unwrap(), b"mine");
 }
