@@ -472,7 +472,7 @@ pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<Ca
         if !(t.is_finite() && (lo..=hi).contains(&t)) {
             return Err(AppError::InvalidArgument(format!(
                 "--tolerance must be a number in [{lo:e}, {hi:e}] (as solver.tolerance in a \
-                 problem file; e.g. 1e-8), got {t}"
+                 problem file; e.g. 1e-8), got {t:e}"
             )));
         }
     }
@@ -520,6 +520,23 @@ pub fn run_certify(
             })?;
         }
         report::probe_writable(path)?;
+        // An output directory of `paper`/`solve` holds exactly one run's files: a JSON
+        // written there could replace that run's `summary.json` (even while it runs) or be
+        // mixed with its results.
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if dir.join(report::LOCK_FILE).exists() {
+            return Err(AppError::InvalidArgument(format!(
+                "--json {}: {} is the output directory of a `suslov paper` or `suslov solve` \
+                 run (it has {}), which holds that run's files only; write the JSON outside \
+                 it",
+                path.display(),
+                dir.display(),
+                report::LOCK_FILE
+            )));
+        }
     }
     let mut reports = Vec::new();
     for job in jobs {

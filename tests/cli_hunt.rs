@@ -189,3 +189,81 @@ fn a_symbolic_link_in_the_output_directory_does_not_lead_the_run_out_of_it() {
     );
     assert_eq!(std::fs::read(out.join("eta_1")).unwrap(), b"mine");
 }
+
+#[test]
+fn certify_help_states_the_exit_status_it_returns() {
+    // The help said "2: some case is not" certified, while the binary returns 3 for that
+    // (2 is clap's malformed command line; cli_faults checks the 3).
+    for args in [&["certify", "--help"][..], &["--help"][..]] {
+        let o = run(args, 30);
+        let help = String::from_utf8_lossy(&o.stdout);
+        assert!(!help.contains("2: some case is not"), "{help}");
+        assert!(help.contains("3: some case is not"), "{help}");
+    }
+}
+
+#[test]
+fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
+    use std::os::unix::fs::FileTypeExt;
+    // `--json /dev/null` (or `/dev/full`) was accepted and, after the work, the atomic
+    // rename replaced the device with a regular file (as root). A FIFO stands in for the
+    // device here, so that this test cannot break the machine it runs on.
+    let dir = scratch("certify_json");
+    let fifo = dir.join("fifo");
+    assert!(Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .unwrap()
+        .success());
+    let config = example("segment.toml");
+    let o = run(
+        &[
+            "-q",
+            "certify",
+            config.to_str().unwrap(),
+            "--json",
+            fifo.to_str().unwrap(),
+        ],
+        120,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("fifo") && e.contains("regular file"), "{e}");
+    assert!(o.stdout.is_empty(), "refused before the work");
+    assert!(std::fs::symlink_metadata(&fifo)
+        .unwrap()
+        .file_type()
+        .is_fifo());
+    // Into the output directory of a solve run: its summary.json was replaced.
+    let out = dir.join("out");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let summary = std::fs::read(out.join("summary.json")).unwrap();
+    let target = out.join("summary.json");
+    let o = run(
+        &[
+            "-q",
+            "certify",
+            config.to_str().unwrap(),
+            "--json",
+            target.to_str().unwrap(),
+        ],
+        120,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("--json") && e.contains("output directory"),
+        "{e}"
+    );
+    assert_eq!(std::fs::read(&target).unwrap(), summary);
+}

@@ -32,7 +32,11 @@ pub enum ReportError {
         holder: String,
     },
     /// A path that cannot be the target of a file write (for example `/` or `..`).
-    #[error("not a file path: {}", path.display())]
+    #[error(
+        "not a file path: {} (a directory, a device, a FIFO or a socket, or a path without a \
+         file name); give the path of a regular file, new or existing",
+        path.display()
+    )]
     NotAFile {
         /// The offending path.
         path: PathBuf,
