@@ -267,3 +267,62 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
     );
     assert_eq!(std::fs::read(&target).unwrap(), summary);
 }
+
+/// A fixed-time segment problem with `omega_a = s·[3, 0, 0]`, `omega_b = s·[1, 2, 0]`.
+fn scaled_segment(dir: &Path, s: &str, b: &str) -> PathBuf {
+    let path = dir.join(format!("scaled_{s}_{b}.toml"));
+    std::fs::write(
+        &path,
+        format!(
+            "[body]\ninertia = [1.0, 2.0, 3.0]\n[boundary]\nomega_a = [3{s}, 0, 0]\n\
+             omega_b = [1{s}, 2{s}, 0]\nterminal_time = {{ fixed = {b} }}\n[cost]\nalpha = 1\n\
+             beta = 0.1\ngamma = 1\neta = 0.1\ndelta = 0.1\n[desired]\nkind = \"segment\"\n"
+        ),
+    )
+    .unwrap();
+    path
+}
+
+#[test]
+fn a_tiny_omega_is_blamed_on_omega_a_not_on_the_terminal_time() {
+    // |omega_a| = 3e-40 over a 4 s span: the projection onto the tiny ellipsoid overflows,
+    // and the message said "`boundary.terminal_time` ... give a later terminal time".
+    let dir = scratch("tiny_omega");
+    for s in ["e-40", "e-150"] {
+        let config = scaled_segment(&dir, s, "4.0");
+        let out = dir.join("out");
+        let o = run(
+            &[
+                "-q",
+                "solve",
+                config.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            60,
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{e}");
+        assert!(
+            e.contains("`boundary.omega_a`") && e.contains("rescale"),
+            "{e}"
+        );
+        assert!(!e.contains("`boundary.terminal_time`"), "{e}");
+    }
+    // A span of 1e-120 at the usual scale is still the terminal time's fault.
+    let config = scaled_segment(&dir, "e0", "1e-120");
+    let out = dir.join("out");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        60,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("`boundary.terminal_time`"), "{e}");
+}
