@@ -1176,7 +1176,12 @@ const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\""
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SamplesError {
     /// A field that is not a number (after the header line).
-    #[error("line {line}: {source} in {text:?}")]
+    #[error(
+        "line {line}: {source} in {text:?}: a row is 4 decimal numbers t, omega1, omega2, \
+         omega3 separated by commas (e.g. 0.25, 10, 0.24, 0.06): no other separator (tab, \
+         space), no trailing comma, no hexadecimal or digit separators, and a header only on \
+         the first line"
+    )]
     NotANumber {
         /// The line.
         line: usize,

@@ -326,3 +326,50 @@ fn a_tiny_omega_is_blamed_on_omega_a_not_on_the_terminal_time() {
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(e.contains("`boundary.terminal_time`"), "{e}");
 }
+
+#[test]
+fn a_samples_row_that_is_not_numbers_says_what_a_row_must_be() {
+    // Tab-separated, hexadecimal, a trailing comma, a header in the middle: the message was
+    // the float parser's ("invalid float literal in ...") without what was expected.
+    let dir = scratch("samples_rows");
+    let spiral = std::fs::read_to_string(example("spiral_samples.toml")).unwrap();
+    let rows = std::fs::read_to_string(example("spiral_samples.csv")).unwrap();
+    let variants = [
+        (
+            "tabs",
+            rows.replace(',', "\t").replacen("t\tomega1", "t,omega1", 1),
+        ),
+        ("hex", rows.replacen("\n0.25,", "\n0x10,", 1)),
+        ("trailing", rows.replacen("\n0.25,10.0", "\n0.25,10.0,", 1)),
+        (
+            "header",
+            rows.replacen("\n0.25,", "\nt,omega1,omega2,omega3\n0.25,", 1),
+        ),
+    ];
+    for (name, csv) in variants {
+        std::fs::write(dir.join(format!("{name}.csv")), csv).unwrap();
+        let config = dir.join(format!("{name}.toml"));
+        std::fs::write(
+            &config,
+            spiral.replace("spiral_samples.csv", &format!("{name}.csv")),
+        )
+        .unwrap();
+        let out = dir.join("out");
+        let o = run(
+            &[
+                "-q",
+                "solve",
+                config.to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+            ],
+            60,
+        );
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{name}: {e}");
+        assert!(
+            e.contains("`desired.file`") && e.contains("separated by commas"),
+            "{name}: {e}"
+        );
+    }
+}
