@@ -373,3 +373,28 @@ fn a_samples_row_that_is_not_numbers_says_what_a_row_must_be() {
         );
     }
 }
+
+#[test]
+fn a_long_output_path_is_not_echoed_whole() {
+    // A 300-byte path component: the message quoted all of it (the cap on echoed input is
+    // ~200 characters).
+    let dir = scratch("long_out");
+    let out = dir.join("a".repeat(300));
+    let config = example("segment.toml");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        60,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(
+        e.contains("File name too long") && e.chars().count() < 320,
+        "{e}"
+    );
+}
