@@ -416,14 +416,26 @@ pub fn run_solve(
     for w in &loaded.warnings {
         events(AppEvent::Warning(w));
     }
+    // `solve DIR/problem.toml --out DIR`: the input is already where its copy goes; it stays
+    // the user's file (not overwritten, not listed for the next run to remove).
+    let same_file = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b))
+    {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    let input_is_the_copy = same_file(config_path, &out.join("problem.toml"));
     let mut dir = OutputDir::open(out)?;
     dir.check_free(
         case_files(Path::new(""))
             .into_iter()
-            .chain(["problem.toml".into(), report::SUMMARY_FILE.into()]),
+            .chain((!input_is_the_copy).then(|| "problem.toml".into()))
+            .chain([report::SUMMARY_FILE.into()]),
     )?;
-    let copy = dir.write("problem.toml", text.as_bytes())?;
-    events(AppEvent::Wrote(&copy));
+    // (A copy an earlier run wrote was just removed with that run's files: write it again.)
+    if !input_is_the_copy || !out.join("problem.toml").exists() {
+        let copy = dir.write("problem.toml", text.as_bytes())?;
+        events(AppEvent::Wrote(&copy));
+    }
     let mut case = run_case(
         &loaded.name,
         &loaded.problem,

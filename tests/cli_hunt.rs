@@ -398,3 +398,57 @@ fn a_long_output_path_is_not_echoed_whole() {
         "{e}"
     );
 }
+
+#[test]
+fn solving_the_problem_file_of_the_output_directory_keeps_it() {
+    // `solve DIR/problem.toml --out DIR` (no manifest yet): the input is its own copy; it
+    // must neither stop the run nor become a file the next run removes.
+    let dir = scratch("problem_in_out");
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    let text = std::fs::read(example("segment.toml")).unwrap();
+    let config = out.join("problem.toml");
+    std::fs::write(&config, &text).unwrap();
+    let args = [
+        "-q",
+        "solve",
+        config.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    for _ in 0..2 {
+        let o = run(&args, 120);
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+        assert_eq!(std::fs::read(&config).unwrap(), text);
+    }
+    let manifest = std::fs::read_to_string(out.join(".suslov-manifest")).unwrap();
+    assert!(!manifest.contains("problem.toml"), "{manifest}");
+    // The copy an earlier run wrote, solved in place: removed with that run's files, then
+    // written again (never lost).
+    let other = dir.join("other");
+    let copy = other.join("problem.toml");
+    let seg = example("segment.toml");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            seg.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            copy.to_str().unwrap(),
+            "--out",
+            other.to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert_eq!(std::fs::read(&copy).unwrap(), text);
+}
