@@ -207,6 +207,21 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
+/// Every file a case may write below `sub` (whichever way it ends), for
+/// [`OutputDir::check_free`] before the work.
+fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
+    let mut names: Vec<String> = ["trajectory", "trajectory.unverified", "trajectory.partial"]
+        .iter()
+        .flat_map(|stem| [format!("{stem}.csv"), format!("{stem}.npy")])
+        .collect();
+    names.extend(
+        report::Figure::ALL
+            .iter()
+            .map(|f| format!("{}.{}", f.stem(), FigureFormat::Png.extension())),
+    );
+    names.into_iter().map(|n| sub.join(n)).collect()
+}
+
 /// Which outputs a case gets: only a verified solution looks final.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Outputs {
@@ -347,6 +362,12 @@ pub fn run_case(
 /// exactly this run's files afterwards). Returns the summary.
 pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary, AppError> {
     let mut dir = OutputDir::open(out)?;
+    dir.check_free(
+        paper::CASES
+            .iter()
+            .flat_map(|c| case_files(Path::new(c.name)))
+            .chain([report::SUMMARY_FILE.into()]),
+    )?;
     let mut summary = Summary::default();
     let options = SolveOptions::default();
     for PaperCase { name, eta, .. } in paper::CASES {
@@ -395,9 +416,26 @@ pub fn run_solve(
     for w in &loaded.warnings {
         events(AppEvent::Warning(w));
     }
+    // `solve DIR/problem.toml --out DIR`: the input is already where its copy goes; it stays
+    // the user's file (not overwritten, not listed for the next run to remove).
+    let same_file = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b))
+    {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    let input_is_the_copy = same_file(config_path, &out.join("problem.toml"));
     let mut dir = OutputDir::open(out)?;
-    let copy = dir.write("problem.toml", text.as_bytes())?;
-    events(AppEvent::Wrote(&copy));
+    dir.check_free(
+        case_files(Path::new(""))
+            .into_iter()
+            .chain((!input_is_the_copy).then(|| "problem.toml".into()))
+            .chain([report::SUMMARY_FILE.into()]),
+    )?;
+    // (A copy an earlier run wrote was just removed with that run's files: write it again.)
+    if !input_is_the_copy || !out.join("problem.toml").exists() {
+        let copy = dir.write("problem.toml", text.as_bytes())?;
+        events(AppEvent::Wrote(&copy));
+    }
     let mut case = run_case(
         &loaded.name,
         &loaded.problem,
@@ -446,7 +484,7 @@ pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<Ca
         if !(t.is_finite() && (lo..=hi).contains(&t)) {
             return Err(AppError::InvalidArgument(format!(
                 "--tolerance must be a number in [{lo:e}, {hi:e}] (as solver.tolerance in a \
-                 problem file; e.g. 1e-8), got {t}"
+                 problem file; e.g. 1e-8), got {t:e}"
             )));
         }
     }
@@ -494,6 +532,23 @@ pub fn run_certify(
             })?;
         }
         report::probe_writable(path)?;
+        // An output directory of `paper`/`solve` holds exactly one run's files: a JSON
+        // written there could replace that run's `summary.json` (even while it runs) or be
+        // mixed with its results.
+        let dir = match path.parent() {
+            Some(d) if !d.as_os_str().is_empty() => d,
+            _ => Path::new("."),
+        };
+        if dir.join(report::LOCK_FILE).exists() {
+            return Err(AppError::InvalidArgument(format!(
+                "--json {}: {} is the output directory of a `suslov paper` or `suslov solve` \
+                 run (it has {}), which holds that run's files only; write the JSON outside \
+                 it",
+                path.display(),
+                dir.display(),
+                report::LOCK_FILE
+            )));
+        }
     }
     let mut reports = Vec::new();
     for job in jobs {
@@ -732,7 +787,7 @@ pub fn run_rank_at_states(
                 )));
             }
             c::sample_states_on_m(&inertia, &om, a.samples, a.seed)
-                .map_err(|e| arg("--omega-a", e))?
+                .map_err(|e| arg("--omega-a with --inertia", e))?
         }
     };
     c::report_table(&inertia, &states, a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))

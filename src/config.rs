@@ -1104,6 +1104,7 @@ fn check_path_finite(
     (t0, b): (f64, f64),
     special_times: &[f64],
     (field, fix): (&str, &str),
+    energy2: f64,
 ) -> Result<(), ConfigError> {
     let grid =
         (0..PATH_CHECK_POINTS).map(|k| t0 + (b - t0) * k as f64 / (PATH_CHECK_POINTS - 1) as f64);
@@ -1117,6 +1118,26 @@ fn check_path_finite(
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()));
         if !finite {
+            // The projection onto E divides by powers of <I Omega, Omega> (its derivatives up
+            // to the third): on an ellipsoid of 2E = 1e-80 it overflows whatever the times
+            // (measured: |omega_a| = 3e-40 with I = diag(1, 2, 3) and b - t0 = 4). Blame the
+            // scale, not the times, when it is that far from 1.
+            if !(ENERGY_SCALE_RANGE.0..=ENERGY_SCALE_RANGE.1).contains(&energy2) {
+                return Err(ConfigError::Invalid {
+                    field: "boundary.omega_a".into(),
+                    message: format!(
+                        "{what} or one of its first three time derivatives is not finite at \
+                         t = {} (it overflows f64): twice the kinetic energy <omega_a, I \
+                         omega_a> = {energy2:e} is outside [{:e}, {:e}], and the projection \
+                         onto the energy ellipsoid divides by its powers; rescale omega_a, \
+                         omega_b and the desired path (or body.inertia) towards 2E ~ 1 (if \
+                         not that: {fix})",
+                        Num(t),
+                        ENERGY_SCALE_RANGE.0,
+                        ENERGY_SCALE_RANGE.1
+                    ),
+                });
+            }
             return Err(ConfigError::Invalid {
                 field: field.into(),
                 message: format!(
@@ -1129,6 +1150,12 @@ fn check_path_finite(
     }
     Ok(())
 }
+
+/// When the desired path is not finite and twice the kinetic energy of `omega_a` lies
+/// outside this range, its scale is named as the cause (not the times): the projection onto
+/// the energy ellipsoid overflowed at 2E ≈ 1e-80 with a 4 s span (measured), and at 1e-60
+/// the segment example still loads.
+pub const ENERGY_SCALE_RANGE: (f64, f64) = (1e-60, 1e60);
 
 /// `b − t0` must be at least this fraction of `max(|t0|, |b|)`. The solver evaluates the
 /// desired path at `t = t0 + s (b − t0)`, rounded to ~`2.2e-16 |t|`; with the bound that is
@@ -1149,7 +1176,12 @@ const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\""
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SamplesError {
     /// A field that is not a number (after the header line).
-    #[error("line {line}: {source} in {text:?}")]
+    #[error(
+        "line {line}: {source} in {text:?}: a row is 4 decimal numbers t, omega1, omega2, \
+         omega3 separated by commas (e.g. 0.25, 10, 0.24, 0.06): no other separator (tab, \
+         space), no trailing comma, no hexadecimal or digit separators, and a header only on \
+         the first line"
+    )]
     NotANumber {
         /// The line.
         line: usize,
@@ -1438,6 +1470,7 @@ impl ProblemFile {
                     inertia.apply(&omega_a).dot(&omega_a)
                 ),
             })?;
+        let energy2 = inertia.apply(&omega_a).dot(&omega_a);
         let tt = boundary.terminal_time.as_ref().ok_or_else(|| {
             missing(
                 "boundary.terminal_time",
@@ -1631,6 +1664,7 @@ impl ProblemFile {
             (t0, b),
             &desired.special_times,
             desired.overflow,
+            energy2,
         )?;
 
         // Omega_b.
@@ -1665,6 +1699,7 @@ impl ProblemFile {
                     "boundary.terminal_time",
                     "its derivatives grow like 1/(b - t0)^3: give a later terminal time",
                 ),
+                energy2,
             )?;
         }
 

@@ -28,6 +28,19 @@ pub fn echo(text: &str) -> String {
     }
 }
 
+/// A path for a message: whole up to [`MAX_ECHO_CHARS`] characters, else its start and its
+/// end (where the file name is) around `…`, with the total length.
+pub fn path(p: &std::path::Path) -> String {
+    let text = p.display().to_string();
+    let n = text.chars().count();
+    if n <= MAX_ECHO_CHARS {
+        return text;
+    }
+    let head: String = text.chars().take(60).collect();
+    let tail: String = text.chars().skip(n - 120).collect();
+    format!("{head}…{tail} ({n} characters in all)")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -66,8 +66,9 @@ enum Command {
     /// Second-order certificate: solve the paper's two cases (or CONFIG), transcribe each
     /// solution directly on its own mesh, move it to the exact KKT point of the discretized
     /// problem and decide from the inertia of the KKT matrix whether it is a strict local
-    /// minimum. Exit status 0: every case certified; 2: some case is not (or has no
-    /// verdict); 1: an error (bad file, unwritable JSON).
+    /// minimum. Exit status 0: every case certified; 3: some case is not (or has no
+    /// verdict, or its solution failed its checks); 1: an error (bad file, unwritable JSON);
+    /// 2: a malformed command line.
     Certify {
         /// A problem file (TOML, as for `solve`); without it, the paper's two cases.
         config: Option<PathBuf>,

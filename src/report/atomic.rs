@@ -78,7 +78,7 @@ pub fn remove_in_flight() -> Vec<PathBuf> {
 /// and carrying the OS error) if creating, writing, syncing or renaming fails.
 pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), ReportError> {
     let path = path.as_ref();
-    if path.file_name().is_none() {
+    if path.file_name().is_none() || is_special(path) {
         return Err(ReportError::NotAFile {
             path: path.to_path_buf(),
         });
@@ -131,7 +131,7 @@ pub fn write_atomic(path: impl AsRef<Path>, bytes: &[u8]) -> Result<(), ReportEr
 /// As [`write_atomic`]; [`ReportError::NotAFile`] if `path` is a directory.
 pub fn probe_writable(path: impl AsRef<Path>) -> Result<(), ReportError> {
     let path = path.as_ref();
-    if path.file_name().is_none() || path.is_dir() {
+    if path.file_name().is_none() || path.is_dir() || is_special(path) {
         return Err(ReportError::NotAFile {
             path: path.to_path_buf(),
         });
@@ -154,6 +154,14 @@ pub fn probe_writable(path: impl AsRef<Path>) -> Result<(), ReportError> {
     let _ = fs::remove_file(&tmp);
     registry.remove(&tmp);
     Ok(())
+}
+
+/// Whether `path` exists and is neither a regular file nor a symbolic link: a directory, a
+/// device (`/dev/null`, `/dev/full`), a FIFO or a socket. The rename of [`write_atomic`] would
+/// replace it with a regular file (as root, `/dev/null` itself).
+fn is_special(path: &Path) -> bool {
+    fs::symlink_metadata(path)
+        .is_ok_and(|m| !(m.file_type().is_file() || m.file_type().is_symlink()))
 }
 
 /// Makes a completed rename durable (Unix); a failure here cannot un-write the data, so it is

@@ -11,7 +11,7 @@ use std::path::PathBuf;
 pub enum ReportError {
     /// An operating-system error while creating, writing, syncing or renaming a file or
     /// creating a directory.
-    #[error("cannot write {}: {source}", path.display())]
+    #[error("cannot write {}: {source}", crate::echo::path(path))]
     Io {
         /// The file (or directory) that was being written.
         path: PathBuf,
@@ -23,7 +23,7 @@ pub enum ReportError {
     #[error(
         "{} is in use by another suslov run ({holder}); wait for it to finish or choose another \
          --out directory",
-        dir.display()
+        crate::echo::path(dir)
     )]
     Busy {
         /// The output directory.
@@ -32,7 +32,11 @@ pub enum ReportError {
         holder: String,
     },
     /// A path that cannot be the target of a file write (for example `/` or `..`).
-    #[error("not a file path: {}", path.display())]
+    #[error(
+        "not a file path: {} (a directory, a device, a FIFO or a socket, or a path without a \
+         file name); give the path of a regular file, new or existing",
+        crate::echo::path(path)
+    )]
     NotAFile {
         /// The offending path.
         path: PathBuf,
@@ -63,7 +67,7 @@ pub enum ReportError {
         message: String,
     },
     /// Serialising a summary to JSON failed.
-    #[error("cannot serialise {} as JSON: {source}", path.display())]
+    #[error("cannot serialise {} as JSON: {source}", crate::echo::path(path))]
     Json {
         /// The file that was to be written.
         path: PathBuf,
@@ -72,7 +76,7 @@ pub enum ReportError {
         source: serde_json::Error,
     },
     /// Drawing or encoding a figure failed.
-    #[error("cannot draw figure {}: {message}", path.display())]
+    #[error("cannot draw figure {}: {message}", crate::echo::path(path))]
     Plot {
         /// The figure file.
         path: PathBuf,

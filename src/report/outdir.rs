@@ -187,6 +187,7 @@ impl OutputDir {
                 rel.display()
             )));
         }
+        self.check_free([&rel])?;
         let mut changed = self.files.insert(rel.clone());
         let mut parents: Vec<PathBuf> = rel
             .ancestors()
@@ -210,6 +211,59 @@ impl OutputDir {
         let path = self.root.join(&rel);
         write_atomic(&path, bytes)?;
         Ok(path)
+    }
+
+    /// Checks that this run may write each of `rels`: a path is free unless something this
+    /// run did not write is there (a user's file or directory, or one of an older version of
+    /// this tool that kept no manifest), or a directory on the way below the root is not a
+    /// real directory (a file, or a symbolic link, which would lead out of it). Callers check
+    /// every name a run may write before the work, so that a conflict costs no solving;
+    /// [`OutputDir::write`] checks again, so that nothing is ever overwritten.
+    ///
+    /// # Errors
+    /// [`ReportError::InvalidInput`] naming the path and the fix.
+    pub fn check_free<P: AsRef<Path>>(
+        &self,
+        rels: impl IntoIterator<Item = P>,
+    ) -> Result<(), ReportError> {
+        for rel in rels {
+            let rel = rel.as_ref();
+            if self.files.contains(rel) {
+                continue;
+            }
+            let mut parents: Vec<&Path> = rel
+                .ancestors()
+                .skip(1)
+                .filter(|p| !p.as_os_str().is_empty())
+                .collect();
+            parents.reverse();
+            for p in parents {
+                let full = self.root.join(p);
+                match fs::symlink_metadata(&full) {
+                    Ok(m) if m.file_type().is_dir() => {}
+                    Ok(_) => {
+                        return Err(ReportError::InvalidInput(format!(
+                            "{} is in the way of the output {}: it is a file or a symbolic link, \
+                             not a directory; move it away or choose another --out",
+                            full.display(),
+                            self.root.join(rel).display()
+                        )))
+                    }
+                    Err(_) => break,
+                }
+            }
+            let full = self.root.join(rel);
+            if fs::symlink_metadata(&full).is_ok() {
+                return Err(ReportError::InvalidInput(format!(
+                    "{} exists and was not written by a suslov run into {} (it is not in its \
+                     {MANIFEST_FILE}); suslov does not overwrite it: move it away or choose \
+                     another --out",
+                    full.display(),
+                    self.root.display()
+                )));
+            }
+        }
+        Ok(())
     }
 
     /// Ends the run: writes `summary.json` (the last file) and removes the `INCOMPLETE`

@@ -86,16 +86,51 @@ impl ControlFields {
 }
 
 /// The generated functions' constant vector `p` (only `I₁, I₂, I₃` enter these fields).
+/// The fields are homogeneous of degree 0 in `I` (Suslov's equations do not change when `I`
+/// is multiplied by a constant), so `I` is passed scaled to `max Iₖ = 1`: their products
+/// (up to `I⁴`) would overflow for moments ~1e80 and up.
 fn params(inertia: &Inertia) -> [f64; 8] {
     let d = inertia.diag();
-    [d[0], d[1], d[2], 0.0, 0.0, 0.0, 0.0, 0.0]
+    // A power of two, so that the scaling is exact: the fields are bit-for-bit those of the
+    // unscaled moments wherever those are finite.
+    let m = 2f64.powi(d.max().log2().floor() as i32);
+    [d[0] / m, d[1] / m, d[2] / m, 0.0, 0.0, 0.0, 0.0, 0.0]
+}
+
+/// A number for a message: plain when moderate, else in exponent notation (`{}` of 1e300
+/// prints 301 digits).
+fn num(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// `[a, b, c]` with [`num`] (`{:?}` of a vector prints nested brackets).
+fn fmt3(v: &Vector3<f64>) -> String {
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
 }
 
 fn state(omega: &Vector3<f64>, xi: &Vector3<f64>) -> Result<[f64; 6], SuslovError> {
     let x = [omega[0], omega[1], omega[2], xi[0], xi[1], xi[2]];
-    if x.iter().any(|v| !v.is_finite()) || xi.norm() == 0.0 {
+    if x.iter().any(|v| !v.is_finite()) {
         return Err(SuslovError::InvalidInput {
-            what: format!("state Omega = {omega:?}, xi = {xi:?}: need finite values and xi != 0"),
+            what: format!(
+                "state Omega = {}, xi = {}: need finite values",
+                fmt3(omega),
+                fmt3(xi)
+            ),
+        });
+    }
+    if xi.iter().all(|v| *v == 0.0) {
+        return Err(SuslovError::InvalidInput {
+            what: format!(
+                "state Omega = {}, xi = {}: xi = 0 is no constraint (M needs xi != 0); give \
+                 a nonzero xi, e.g. 0,1,0",
+                fmt3(omega),
+                fmt3(xi)
+            ),
         });
     }
     Ok(x)
@@ -114,6 +149,23 @@ pub fn control_fields(
     let mut br = [[0.0; 6]; 3];
     generated::control_fields(&x, &p, &mut fg);
     generated::lie_brackets(&x, &p, &mut br);
+    // Not finite in f64 (|Ω| ~1e150, moments 1e300 apart): an error, never NaN in the SVD,
+    // which does not return on a NaN matrix.
+    if fg.iter().chain(&br).flatten().any(|v| !v.is_finite()) {
+        return Err(SuslovError::InvalidInput {
+            what: format!(
+                "the control fields at Omega = {}, xi = {} with I = diag({}, {}, {}) are not \
+                 finite in f64 (products of the moments of inertia and up to three powers of \
+                 Omega or xi overflow or underflow); rescale: the rank does not change with \
+                 |xi| or with the scale of I, e.g. |xi| = 1 and max I_k = 1",
+                fmt3(omega),
+                fmt3(xi),
+                num(inertia.diag()[0]),
+                num(inertia.diag()[1]),
+                num(inertia.diag()[2])
+            ),
+        });
+    }
     let v = |a: &[f64; 6]| Vector6::from_column_slice(a);
     Ok(ControlFields {
         drift: v(&fg[0]),
@@ -295,7 +347,26 @@ pub fn sample_states_on_m(
         });
     }
     let mut out = Vec::with_capacity(n);
+    // A draw is rejected with probability ~1e-9 (|d| < 1e-3, or r ∥ Ω) at a sane scale; when
+    // every draw is rejected (the state underflows: moments 1e600 apart), stop instead of
+    // looping forever.
+    let mut attempts = 0_usize;
     while out.len() < n {
+        attempts += 1;
+        if attempts > 1000 + 10 * n {
+            return Err(SuslovError::InvalidInput {
+                what: format!(
+                    "no state of M with the energy of Omega_a = {} for I = diag({}, {}, {}) is \
+                     representable in f64 (Omega on the energy ellipsoid underflows or \
+                     overflows in some direction); bring the moments of inertia closer \
+                     together (their ratios, not their scale, matter)",
+                    fmt3(omega_a),
+                    num(inertia.diag()[0]),
+                    num(inertia.diag()[1]),
+                    num(inertia.diag()[2])
+                ),
+            });
+        }
         let d = Vector3::new(next(), next(), next());
         let r = Vector3::new(next(), next(), next());
         let q = inertia.apply(&d).dot(&d);
@@ -412,7 +483,9 @@ pub fn report_table(
         "Accessibility of Suslov's pure equations, x = [Omega, xi], u = xi' (paper section 4.3)\n\
          I = diag({}, {}, {}); V = [g1, g2, g3, [g1,g2], [g1,g3], [g2,g3]]; \
          rank = #{{sigma_k > {rtol:e} sigma_1}}\n",
-        d[0], d[1], d[2]
+        num(d[0]),
+        num(d[1]),
+        num(d[2])
     );
     let _ = writeln!(
         s,
@@ -423,7 +496,16 @@ pub fn report_table(
     let mut rows = Vec::with_capacity(states.len());
     for (k, (om, xi)) in states.iter().enumerate() {
         let r = rank_report(inertia, om, xi, rtol)?;
-        let v3 = |v: &Vector3<f64>| format!("[{:7.3}, {:7.3}, {:7.3}]", v[0], v[1], v[2]);
+        // Fixed point for the usual scale, exponent notation beyond it (`{:7.3}` of 1e300
+        // prints 301 digits).
+        let c = |x: f64| {
+            if x.abs() < 1e6 {
+                format!("{x:7.3}")
+            } else {
+                format!("{x:7.1e}")
+            }
+        };
+        let v3 = |v: &Vector3<f64>| format!("[{}, {}, {}]", c(v[0]), c(v[1]), c(v[2]));
         let sv = r
             .singular_values
             .iter()
