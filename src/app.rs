@@ -533,20 +533,12 @@ pub fn run_certify(
         }
         report::probe_writable(path)?;
         // An output directory of `paper`/`solve` holds exactly one run's files: a JSON
-        // written there could replace that run's `summary.json` (even while it runs) or be
-        // mixed with its results.
-        let dir = match path.parent() {
-            Some(d) if !d.as_os_str().is_empty() => d,
-            _ => Path::new("."),
-        };
-        if dir.join(report::LOCK_FILE).exists() {
+        // written over one of them would replace that run's result (even while it runs).
+        if report::belongs_to_a_run(path) {
             return Err(AppError::InvalidArgument(format!(
-                "--json {}: {} is the output directory of a `suslov paper` or `suslov solve` \
-                 run (it has {}), which holds that run's files only; write the JSON outside \
-                 it",
-                path.display(),
-                dir.display(),
-                report::LOCK_FILE
+                "--json {}: that file belongs to the `suslov paper`/`solve` run whose output \
+                 directory it is in; give the JSON another name (or write it elsewhere)",
+                crate::echo::echo(&path.display().to_string()),
             )));
         }
     }

@@ -266,6 +266,31 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
         "{e}"
     );
     assert_eq!(std::fs::read(&target).unwrap(), summary);
+    // A file of another name there is the user's: allowed, and the next run keeps it.
+    let cert = out.join("certificate.json");
+    let o = run(
+        &[
+            "-q",
+            "certify",
+            config.to_str().unwrap(),
+            "--json",
+            cert.to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            config.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(cert.exists());
 }
 
 /// A fixed-time segment problem with `omega_a = s·[3, 0, 0]`, `omega_b = s·[1, 2, 0]`.

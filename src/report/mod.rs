@@ -56,7 +56,9 @@ pub use error::ReportError;
 pub use figures::{
     render_figure_bytes, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
 };
-pub use outdir::{OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE};
+pub use outdir::{
+    belongs_to_a_run, OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE,
+};
 pub use summary::{
     finite_or_null, opt_finite_or_null, write_summary_json, CaseStatus, CaseSummary, CheckSummary,
     StabilityRun, StageSummary, Summary, VerificationSummary,

@@ -299,6 +299,30 @@ impl OutputDir {
     }
 }
 
+/// Whether `path` is a file of the output directory it lies in: `dir` is an output directory
+/// (it has [`LOCK_FILE`]) and `path` is one of its bookkeeping files, its `summary.json`, a
+/// temporary, or a file its last run wrote (listed in its manifest). Another program writing
+/// `path` would replace a run's result; a file of another name there is the user's.
+pub fn belongs_to_a_run(path: &Path) -> bool {
+    let (Some(dir), Some(name)) = (path.parent(), path.file_name()) else {
+        return false;
+    };
+    let dir = if dir.as_os_str().is_empty() {
+        Path::new(".")
+    } else {
+        dir
+    };
+    if !dir.join(LOCK_FILE).exists() {
+        return false;
+    }
+    let own = [LOCK_FILE, MANIFEST_FILE, INCOMPLETE_FILE, SUMMARY_FILE];
+    if own.iter().any(|n| name == *n) || name.to_str().is_some_and(is_temporary_name) {
+        return true;
+    }
+    let (files, _) = read_manifest(dir);
+    files.contains(Path::new(name))
+}
+
 /// Only normal components: no root, no `..`, no `.` (so it stays below the directory).
 fn is_plain_relative(p: &Path) -> bool {
     !p.as_os_str().is_empty() && p.components().all(|c| matches!(c, Component::Normal(_)))
