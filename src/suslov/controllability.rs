@@ -193,6 +193,43 @@ pub struct RankReport {
     pub constraint: f64,
     /// `⟨Ω, ξ⟩ / (|Ω| |ξ|)` (0 on `M`; 0 if `Ω = 0`).
     pub relative_constraint: f64,
+    /// `(e_Ω, e_ξ)`: `V` and its singular values are those at `(2^{−e_Ω} Ω, 2^{−e_ξ} ξ)`
+    /// ([`state_scales`]; `(0, 0)` at the usual scales).
+    pub scales: (i32, i32),
+}
+
+/// A state's components are used as given while `max |vₖ|` lies in `[2^−20, 2^20]`; beyond,
+/// the vector is rescaled by an exact power of two first.
+pub const STATE_SCALE_MAX_EXP: i32 = 20;
+
+/// `(e_Ω, e_ξ)`: exponents of the powers of two that bring `max |Ωₖ|` and `max |ξₖ|` near 1,
+/// `0` where they already lie in `[2^−20, 2^20]` (or the vector is zero or not finite).
+///
+/// The rank of `V` does not depend on them: with `Ω → λΩ` the `Ω`-rows of `V` scale by `λ`;
+/// with `ξ → sξ` the `Ω`-rows of the `gᵢ` scale by `1/s` and of the brackets by `1/s²`, and
+/// `rank V = 3 + rank` of the bracket block either way (module docs). Without rescaling,
+/// `|Ω| ~ 1e150` overflows the fields, and far from unit scale the relative threshold would
+/// misjudge the rank. Powers of two keep the rescaling exact.
+pub fn state_scales(omega: &Vector3<f64>, xi: &Vector3<f64>) -> (i32, i32) {
+    let exponent = |v: &Vector3<f64>| {
+        let m = v.amax();
+        if !(m.is_finite() && m > 0.0) {
+            return 0;
+        }
+        let e = m.log2().round() as i32;
+        if e.abs() <= STATE_SCALE_MAX_EXP {
+            0
+        } else {
+            e
+        }
+    };
+    (exponent(omega), exponent(xi))
+}
+
+/// `2^{−e} v`, exactly (in two steps, so that neither factor overflows or underflows).
+fn unscale(v: &Vector3<f64>, e: i32) -> Vector3<f64> {
+    let half = -e / 2;
+    v * 2f64.powi(half) * 2f64.powi(-e - half)
 }
 
 /// Singular values of `V`, sorted descending.
@@ -217,11 +254,13 @@ pub fn rank_report(
     xi: &Vector3<f64>,
     rtol: f64,
 ) -> Result<RankReport, SuslovError> {
-    let fields = control_fields(inertia, omega, xi)?;
+    let scales = state_scales(omega, xi);
+    let (om_s, xi_s) = (unscale(omega, scales.0), unscale(xi, scales.1));
+    let fields = control_fields(inertia, &om_s, &xi_s)?;
     let sv = singular_values(&fields.accessibility_matrix());
     let (rank, threshold) = numerical_rank(&sv, rtol);
     let constraint = omega.dot(xi);
-    let scale = omega.norm() * xi.norm();
+    let scale = om_s.norm() * xi_s.norm();
     Ok(RankReport {
         rank,
         singular_values: sv,
@@ -232,9 +271,15 @@ pub fn rank_report(
         } else {
             sv[rank] / sv[rank - 1]
         },
-        drift_norm: fields.drift.norm(),
+        // f is quadratic in Ω and independent of the scale of ξ.
+        drift_norm: fields.drift.norm() * 2f64.powi(scales.0) * 2f64.powi(scales.0),
         constraint,
-        relative_constraint: if scale > 0.0 { constraint / scale } else { 0.0 },
+        relative_constraint: if scale > 0.0 {
+            om_s.dot(&xi_s) / scale
+        } else {
+            0.0
+        },
+        scales,
     })
 }
 
@@ -462,8 +507,10 @@ pub enum AccessibilityVerdict {
 
 /// Whether `(Ω, ξ)` lies on `M` in the sense of [`ON_M_RTOL`].
 pub fn is_on_m(omega: &Vector3<f64>, xi: &Vector3<f64>) -> bool {
+    let (so, sx) = state_scales(omega, xi);
+    let (omega, xi) = (unscale(omega, so), unscale(xi, sx));
     let scale = omega.norm() * xi.norm();
-    scale > 0.0 && scale.is_finite() && omega.dot(xi).abs() < ON_M_RTOL * scale
+    scale > 0.0 && scale.is_finite() && omega.dot(&xi).abs() < ON_M_RTOL * scale
 }
 
 /// The `suslov controllability` table: one row per state `(Ω, ξ)` with `⟨Ω, ξ⟩`, whether it
@@ -494,12 +541,13 @@ pub fn report_table(
     );
     // (rank, on M, drift nonzero, |f|)
     let mut rows = Vec::with_capacity(states.len());
+    let mut rescaled = false;
     for (k, (om, xi)) in states.iter().enumerate() {
         let r = rank_report(inertia, om, xi, rtol)?;
         // Fixed point for the usual scale, exponent notation beyond it (`{:7.3}` of 1e300
         // prints 301 digits).
         let c = |x: f64| {
-            if x.abs() < 1e6 {
+            if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
                 format!("{x:7.3}")
             } else {
                 format!("{x:7.1e}")
@@ -525,8 +573,20 @@ pub fn report_table(
             sv,
             r.drift_norm
         );
-        let drifts = r.drift_norm > DRIFT_RTOL * om.norm_squared();
+        // Judged at the rescaled state (f is quadratic in Ω).
+        let om_s = unscale(om, r.scales.0);
+        let f_s = r.drift_norm * 2f64.powi(-r.scales.0) * 2f64.powi(-r.scales.0);
+        let drifts = f_s > DRIFT_RTOL * om_s.norm_squared() || (f_s == 0.0 && r.drift_norm > 0.0);
+        rescaled |= r.scales != (0, 0);
         rows.push((r.rank, on_m, drifts, r.drift_norm));
+    }
+    if rescaled {
+        let _ = writeln!(
+            s,
+            "(states with a component beyond 2^20 or all below 2^-20 in size: V and its singular \
+             values are evaluated at Omega and xi rescaled by exact powers of two, which leaves \
+             the rank and M unchanged)"
+        );
     }
     let on_m: Vec<_> = rows.iter().filter(|r| r.1).collect();
     let off_m: Vec<_> = rows.iter().filter(|r| !r.1).collect();
@@ -858,6 +918,34 @@ mod tests {
             table.contains("the drift is nonzero at 3 of them"),
             "{table}"
         );
+    }
+
+    #[test]
+    fn the_rank_does_not_depend_on_the_scale_of_the_state() {
+        // Exact powers of two leave every singular value at the usual scale unchanged, and at
+        // extreme scales the rank is judged at the rescaled state.
+        let inertia = Inertia::paper();
+        let om = Vector3::new(1.0, 2.0, 3.0);
+        // Integer components: their products with 5e-324 = 2^-1074 are exact subnormals, so
+        // every scaled state below is on M exactly.
+        let xi = Vector3::new(2.0, -1.0, 0.0);
+        let base = rank_report(&inertia, &om, &xi, RANK_RTOL).unwrap();
+        assert_eq!((base.rank, base.scales), (4, (0, 0)));
+        for (lo, lx) in [
+            (1e150, 1.0),
+            (1e-150, 1.0),
+            (1.0, 1e-300),
+            (5e-324, 5e-324),
+            (1e300, 1e-200),
+        ] {
+            let r = rank_report(&inertia, &(om * lo), &(xi * lx), RANK_RTOL).unwrap();
+            assert_eq!(r.rank, 4, "|Omega| ~ {lo:e}, |xi| ~ {lx:e}: {r:?}");
+            assert!(is_on_m(&(om * lo), &(xi * lx)));
+        }
+        // The drift at the state as given: quadratic in Omega.
+        let r = rank_report(&inertia, &(om * 2f64.powi(40)), &xi, RANK_RTOL).unwrap();
+        let expected = base.drift_norm * 2f64.powi(80);
+        assert!((r.drift_norm / expected - 1.0).abs() < 1e-12, "{r:?}");
     }
 
     #[test]
