@@ -462,6 +462,13 @@ fn controllability_arguments_are_checked_before_the_work() {
         assert!(stderr.contains(flag), "{args:?}: {stderr}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
+    // A problem file that cannot be read is blamed on the flag that named it.
+    let (code, _, stderr) = run(&["--along", "/nonexistent/problem.toml"]);
+    assert_eq!(code, Some(1));
+    assert!(
+        stderr.contains("--along") && stderr.contains("/nonexistent/problem.toml"),
+        "{stderr}"
+    );
     let long = format!("1,2,{}", "3".repeat(100_000));
     let (code, _, stderr) = run(&["--inertia", &long, "--omega", "1,0,0", "--xi", "0,1,0"]);
     assert_eq!(code, Some(1));
