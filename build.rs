@@ -13,8 +13,6 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::{env, fs};
 
-const FILES: [&str; 3] = ["suslov_model.rs", "suslov_vectors.rs", "formulas.txt"];
-
 fn main() {
     let root = PathBuf::from(env::var("CARGO_MANIFEST_DIR").expect("CARGO_MANIFEST_DIR"));
     let out = PathBuf::from(env::var("OUT_DIR").expect("OUT_DIR"));
@@ -22,10 +20,15 @@ fn main() {
     let committed = codegen.join("generated");
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo:rerun-if-env-changed=SUSLOV_PYTHON");
-    for entry in codegen_sources(&codegen) {
+    for (_, entry) in codegen_sources(&codegen) {
         println!("cargo:rerun-if-changed={}", entry.display());
     }
-    for f in FILES {
+    println!(
+        "cargo:rerun-if-changed={}",
+        codegen.join("models").display()
+    );
+    let files = committed_files(&committed);
+    for f in &files {
         println!("cargo:rerun-if-changed={}", committed.join(f).display());
     }
     let hash = source_hash(&codegen);
@@ -38,7 +41,7 @@ fn main() {
         .output();
     let fallback_reason = match run {
         Ok(o) if o.status.success() => {
-            if !FILES
+            if !files
                 .iter()
                 .all(|f| same_file(&out.join(f), &committed.join(f)))
             {
@@ -58,7 +61,7 @@ fn main() {
         ),
         Err(e) => format!("could not run `{python}`: {e}"),
     };
-    let recorded = fs::read_to_string(committed.join("suslov_model.rs"))
+    let recorded = fs::read_to_string(committed.join("models.rs"))
         .ok()
         .and_then(|s| recorded_hash(&s));
     if recorded.as_deref() != Some(hash.as_str()) {
@@ -71,7 +74,7 @@ fn main() {
             recorded.unwrap_or_else(|| "nothing".into())
         );
     }
-    for f in FILES {
+    for f in &files {
         fs::copy(committed.join(f), out.join(f)).expect("copy committed generated file");
     }
     println!(
@@ -81,17 +84,39 @@ fn main() {
     );
 }
 
-/// The codegen sources that the hash covers: top-level `*.py` and `requirements.txt`.
-fn codegen_sources(dir: &Path) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = fs::read_dir(dir)
-        .expect("read codegen/")
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.is_file()
-                && (p.extension().is_some_and(|x| x == "py")
-                    || p.file_name().is_some_and(|n| n == "requirements.txt"))
-        })
+/// The generated files of the committed copy (`*.rs` and `*.txt` in `codegen/generated/`).
+fn committed_files(dir: &Path) -> Vec<String> {
+    let mut v: Vec<String> = fs::read_dir(dir)
+        .expect("read codegen/generated/")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| n.ends_with(".rs") || n.ends_with(".txt"))
         .collect();
+    v.sort();
+    v
+}
+
+/// The codegen sources that the hash covers: top-level `*.py`, `models/*.py` and
+/// `requirements.txt`, sorted by their path relative to `codegen/` (`/`-separated).
+fn codegen_sources(dir: &Path) -> Vec<(String, PathBuf)> {
+    let mut v: Vec<(String, PathBuf)> = Vec::new();
+    for (prefix, sub) in [("", dir.to_path_buf()), ("models/", dir.join("models"))] {
+        for p in fs::read_dir(&sub)
+            .expect("read codegen sources")
+            .filter_map(|e| e.ok().map(|e| e.path()))
+        {
+            let name = p
+                .file_name()
+                .expect("file name")
+                .to_string_lossy()
+                .into_owned();
+            if p.is_file()
+                && (name.ends_with(".py") || (prefix.is_empty() && name == "requirements.txt"))
+            {
+                v.push((format!("{prefix}{name}"), p));
+            }
+        }
+    }
     v.sort();
     v
 }
@@ -99,12 +124,7 @@ fn codegen_sources(dir: &Path) -> Vec<PathBuf> {
 /// Same hash as `source_hash()` in codegen/generate.py.
 fn source_hash(dir: &Path) -> String {
     let mut h = Sha256::new();
-    for p in codegen_sources(dir) {
-        let name = p
-            .file_name()
-            .expect("file name")
-            .to_string_lossy()
-            .into_owned();
+    for (name, p) in codegen_sources(dir) {
         h.update(name.as_bytes());
         h.update([0u8]);
         h.update(fs::read(&p).expect("read codegen source"));

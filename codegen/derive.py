@@ -1,15 +1,18 @@
-"""The derivation: from the model (model.py) to the explicit optimality system.
+"""The derivation: from a model (model.py, models/*.py) to the explicit optimality system.
 
-Every formula is computed here from first principles; the paper's printed results
-(eqs. Suslov_q, Suslov_lambda, p_sys_explicit, p_lbc, p_rbc, delta_c_rbc) are only a
-cross-check (see codegen/README.md and tests/paper_crosscheck.rs).
+One derivation for every model: the paper's section 3 (an arbitrary Lie group), computed from
+first principles with the model's algebra (ad* from its structure constants), inertia,
+constraint value and cost. The paper's printed SO(3) results (eqs. Suslov_q, Suslov_lambda,
+p_sys_explicit, p_lbc, p_rbc, delta_c_rbc) are only a cross-check (see codegen/README.md and
+tests/paper_crosscheck.rs).
 
-Steps, in the order they run:
+Steps, in the order they run (M is the model):
 
-1. Suslov's pure equations (Lagrange-d'Alembert on SO(3)):
-       d/dt (dl/dOm) = (dl/dOm) x Om + lambda * dphi/dOm,
-   lambda from d/dt phi = 0 (linear in lambda), and q = den(lambda) * residual, where den is the
-   coefficient of lambda in d/dt phi, so that q is polynomial (eq. Suslov_q).
+1. Suslov's pure equations (Lagrange-d'Alembert, eq. Suslov_gen2):
+       d/dt (dl/dOm) = ad*_Om (dl/dOm) + lambda * xi,   phi = <Om, xi> - gamma(xi) = 0,
+   lambda from d/dt phi = 0 (linear in lambda, eq. lambda_expression2p5), and
+   q = den(lambda) * residual, where den = <xi, I^-1 xi> is the coefficient of lambda in
+   d/dt phi, so that q is polynomial in the jets (eq. Suslov_q for so(3)).
 2. The augmented Lagrangian L = C + <kappa, q> and its Euler-Lagrange equations in Om and xi,
    with the total time derivative applied symbol by symbol (model.JET); kappa's equation is q = 0.
 3. Top-derivative system: E = (d/dt q, EL_Om, EL_xi) = 0 is linear in z = (Om'', xi'', kappa').
@@ -29,7 +32,6 @@ import random
 import mpmath
 import sympy as sp
 
-import model as M
 from slp import Program
 
 
@@ -38,22 +40,18 @@ def grad(expr, wrt):
     return sp.Matrix([sp.diff(expr, w) for w in wrt])
 
 
-def total_derivative(expr, jet=M.JET):
-    """d/dt of an expression of jet symbols (no explicit time dependence)."""
+def total_derivative(M, expr):
+    """d/dt of an expression of the model's jet symbols (no explicit time dependence)."""
     expr = sp.sympify(expr)
     if isinstance(expr, sp.MatrixBase):
-        return expr.applyfunc(lambda e: total_derivative(e, jet))
+        return expr.applyfunc(lambda e: total_derivative(M, e))
     out = sp.Integer(0)
     for s in sorted(expr.free_symbols, key=sp.default_sort_key):
-        if s in jet:
-            out += sp.diff(expr, s) * jet[s]
+        if s in M.JET:
+            out += sp.diff(expr, s) * M.JET[s]
         elif s not in M.PARAMS:
             raise ValueError(f"no time derivative known for {s}")
     return out
-
-
-def cross(a, b):
-    return a.cross(b)
 
 
 def dot(a, b):
@@ -70,6 +68,13 @@ def check_zero(mat, what):
         raise AssertionError(f"structure check failed: {what} (e.g. {bad[0]})")
 
 
+def inertia_solve(M, b):
+    """I^-1 b: entrywise for a diagonal inertia, else with the model's I^-1."""
+    if M.inertia_diagonal:
+        return sp.Matrix([b[i] / M.INERTIA[i, i] for i in range(M.n)])
+    return M.INERTIA_INV * b
+
+
 def solve_linear(A, b):
     """Solve A x = b symbolically; diagonal A is inverted entrywise."""
     if all(is_zero(A[i, j]) for i in range(A.rows) for j in range(A.cols) if i != j):
@@ -77,10 +82,21 @@ def solve_linear(A, b):
     return A.LUsolve(b)
 
 
-def diag_inverse(A, what):
-    if not all(is_zero(A[i, j]) for i in range(A.rows) for j in range(A.cols) if i != j):
-        raise AssertionError(f"structure check failed: {what} is not diagonal")
-    return sp.diag(*[1 / A[i, i] for i in range(A.rows)])
+def is_diagonal(A):
+    return all(is_zero(A[i, j]) for i in range(A.rows) for j in range(A.cols) if i != j)
+
+
+def block_inverse(M, A, what):
+    """The inverse of a block of the top-derivative system that is diagonal (inverted
+    entrywise) or a scalar multiple s I of the inertia (inverse s^-1 I^-1, with I^-1 the
+    model's, symbolic or derived constants). Raises for any other structure."""
+    if is_diagonal(A):
+        return sp.diag(*[1 / A[i, i] for i in range(A.rows)])
+    i, j = next((i, j) for i in range(A.rows) for j in range(A.cols)
+                if not is_zero(M.INERTIA[i, j]))
+    s = sp.cancel(A[i, j] / M.INERTIA[i, j])
+    check_zero(A - s * M.INERTIA, f"{what} is diagonal or a scalar multiple of the inertia")
+    return M.INERTIA_INV / s
 
 
 # ---------------------------------------------------------------------------------------------
@@ -90,16 +106,22 @@ def diag_inverse(A, what):
 class Suslov:
     """lambda, q and Omega_dot for the model's Lagrangian and constraint."""
 
-    def __init__(self, Om=M.Om, OmDot=M.OmDot, xi=M.xi, xiDot=M.xiDot):
+    def __init__(self, M):
+        self.M = M
+        Om, OmDot, xi, xiDot = M.Om, M.OmDot, M.xi, M.xiDot
         lam = sp.Symbol("lambda_", real=True)
         l = M.body_lagrangian(Om)
         mom = grad(l, Om)  # dl/dOm = I Om
+        check_zero(mom.jacobian(Om) - M.INERTIA, "d2l/dOm2 is the inertia")
         dmom = mom.jacobian(Om) * OmDot  # d/dt (dl/dOm)
         phi = M.constraint(Om, xi)
         gphi_om = grad(phi, Om)  # = xi
-        gphi_xi = grad(phi, xi)  # = Om
-        # Lagrange-d'Alembert: d/dt mom = mom x Om + lam * gphi_om; solve for Om_dot.
-        omdot_of_lam = solve_linear(mom.jacobian(Om), cross(mom, Om) + lam * gphi_om)
+        # Lagrange-d'Alembert with variations <xi, eta> = 0: the constraint force is lam xi.
+        check_zero(gphi_om - xi, "dphi/dOm = xi (the constraint is <xi, Omega> = gamma(xi))")
+        gphi_xi = grad(phi, xi)  # = Om - grad gamma
+        self.ad_star_mom = M.ad_star(Om, mom)  # ad*_Om (I Om)
+        # Euler-Poincare-Suslov: d/dt mom = ad*_Om mom + lam * xi; solve for Om_dot.
+        omdot_of_lam = inertia_solve(M, self.ad_star_mom + lam * gphi_om)
         # The constraint is preserved: d/dt phi = <gphi_om, Om_dot> + <gphi_xi, xi_dot> = 0.
         dphi = dot(gphi_om, omdot_of_lam) + dot(gphi_xi, xiDot)
         den = sp.simplify(sp.diff(dphi, lam))
@@ -114,11 +136,11 @@ class Suslov:
         self.gphi_om = gphi_om
         self.gphi_xi = gphi_xi
         # q = den * (d/dt mom - mom x Om - lambda gphi_om): polynomial in the jets.
-        self.q = (den * (dmom - cross(mom, Om)) - self.lam_num * gphi_om).applyfunc(sp.expand)
-        # Om_dot from q = 0 (linear in Om_dot).
+        self.q = (den * (dmom - self.ad_star_mom) - self.lam_num * gphi_om).applyfunc(sp.expand)
+        # Om_dot from q = 0 (linear in Om_dot, coefficient den I).
         A, b = sp.linear_eq_to_matrix(list(self.q), list(OmDot))
-        self.omega_dot = solve_linear(A, b).applyfunc(sp.cancel)
-        # The same solution in structured form, Om_dot = (dmom/dOm)^-1 (mom x Om + lambda
+        self.omega_dot = (block_inverse(M, A, "dq/dOm_dot") * b).applyfunc(sp.cancel)
+        # The same solution in structured form, Om_dot = I^-1 (ad*_Om I Om + lambda
         # dphi/dOm), which is what the generated code evaluates (lambda as a named quantity).
         self.lam_symbol = lam
         self.omdot_of_lam = omdot_of_lam
@@ -126,7 +148,7 @@ class Suslov:
     def let_omega_dot(self, prog):
         """Append lambda and Om_dot to a program; return Om_dot's symbols."""
         lam = prog.let("lam", self.lam)
-        return prog.let(list(M.OmDot), self.omdot_of_lam.subs(self.lam_symbol, lam))
+        return prog.let(list(self.M.OmDot), self.omdot_of_lam.subs(self.lam_symbol, lam))
 
 
 # ---------------------------------------------------------------------------------------------
@@ -136,8 +158,9 @@ class Suslov:
 class Optimality:
     """Euler-Lagrange equations of C + <kappa, q> and their explicit first-order form."""
 
-    def __init__(self):
-        s = Suslov()
+    def __init__(self, M):
+        self.M = M
+        s = Suslov(M)
         self.suslov = s
         C = M.cost(M.Om, M.OmDot, M.xi, M.xiDot, M.Om_d)
         self.C = C
@@ -146,9 +169,9 @@ class Optimality:
         self.L = L
         self.p_om = grad(L, M.OmDot)  # momentum conjugate to Om
         self.p_xi = grad(L, M.xiDot)  # momentum conjugate to xi
-        self.el_om = grad(L, M.Om) - total_derivative(self.p_om)
-        self.el_xi = grad(L, M.xi) - total_derivative(self.p_xi)
-        self.dq = total_derivative(q)
+        self.el_om = grad(L, M.Om) - total_derivative(M, self.p_om)
+        self.el_xi = grad(L, M.xi) - total_derivative(M, self.p_xi)
+        self.dq = total_derivative(M, q)
         z = [list(M.OmDDot), list(M.xiDDot), list(M.kappaDot)]
         eqs = [self.dq, self.el_om, self.el_xi]
         flat = [v for zz in z for v in zz]
@@ -165,10 +188,10 @@ class Optimality:
         check_zero(M22, "EL_Om does not contain xi''")
         check_zero(M31, "EL_xi does not contain Om''")
         m = M32[0, 0]
-        check_zero(M32 - m * sp.eye(3), "EL_xi's xi'' block is a multiple of the identity")
+        check_zero(M32 - m * sp.eye(M.n), "EL_xi's xi'' block is a multiple of the identity")
         # xi'' enters d/dt q only through s = <v, xi''>, v = dphi/dxi: M12 = u v^T.
         v = s.gphi_xi
-        j = next(i for i in range(3) if v[i] != 0)
+        j = next(i for i in range(M.n) if v[i] != 0)
         u = (M12[:, j] / v[j]).applyfunc(sp.cancel)
         check_zero(M12 - u * v.T, "M12 is rank one with row space dphi/dxi")
         self.blocks = blocks
@@ -176,8 +199,8 @@ class Optimality:
         self.m = m
         self.u = u
         self.v = v
-        self.M11inv = diag_inverse(M11, "M11 (Om'' in d/dt q)")
-        self.M23inv = diag_inverse(M23, "M23 (kappa' in EL_Om)")
+        self.M11inv = block_inverse(M, M11, "M11 (Om'' in d/dt q)")
+        self.M23inv = block_inverse(M, M23, "M23 (kappa' in EL_Om)")
         self.M21 = M21
         self.M33 = M33
 
@@ -188,7 +211,7 @@ class Optimality:
         kappa' = c0 + c1 s (from EL_Om); h, w with (m I + w v^T) xi'' = h (from EL_xi);
         s = <v, h>/(m + <v, w>) and xi'' = (h - w s)/m (Sherman-Morrison); kappa'.
         """
-        s = self.suslov
+        s, M = self.suslov, self.M
         r1, r2, r3 = self.rhs
         om_dot = s.let_omega_dot(prog)
         a1 = prog.let("a", self.M11inv * r1)
@@ -204,7 +227,7 @@ class Optimality:
         return list(om_dot) + list(M.xiDot) + list(xi_dd) + list(kappa_dot), a1, b1, sm
 
     def direct_top_derivatives(self):
-        """(Matrix, rhs) of the full 9x9 linear system in z, for cross-checks."""
+        """(Matrix, rhs) of the full 3n x 3n linear system in z, for cross-checks."""
         A = sp.BlockMatrix(self.blocks).as_explicit()
         b = sp.Matrix.vstack(*self.rhs)
         return A, b
@@ -214,10 +237,10 @@ class Optimality:
 # 4. Boundary quantities (all evaluated on-shell: Om_dot = F(Om, xi, xi_dot), so q = 0)
 
 
-def onshell_program(inputs, constants):
+def onshell_program(opt, inputs):
     """A program whose first assignments are Om_dot = F(Om, xi, xi_dot)."""
-    prog = Program(inputs, constants)
-    Suslov().let_omega_dot(prog)
+    prog = Program(inputs, opt.M.PARAMS)
+    opt.suslov.let_omega_dot(prog)
     return prog
 
 
@@ -228,14 +251,14 @@ def natural_bc(opt):
 
 def energy_function(opt):
     """E = <p_Om, Om_dot> + <p_xi, xi_dot> - L (the Hamiltonian of the augmented Lagrangian)."""
-    return dot(opt.p_om, M.OmDot) + dot(opt.p_xi, M.xiDot) - opt.L
+    return dot(opt.p_om, opt.M.OmDot) + dot(opt.p_xi, opt.M.xiDot) - opt.L
 
 
 def free_time_condition(opt):
     """Transversality for free b: E(b) = 0. Returned in the paper's sign and simplified form
     -E + <p_xi, xi_dot> - <kappa, q> = C - <p_Om, Om_dot>, i.e. with the terms dropped that
     vanish by the other right conditions (p_xi(b) = 0) and on-shell (q = 0)."""
-    return opt.C - dot(opt.p_om, M.OmDot)
+    return opt.C - dot(opt.p_om, opt.M.OmDot)
 
 
 def classical_costates(opt):
@@ -247,17 +270,12 @@ def classical_costates(opt):
 # Section 5.1: the analytic singular solution
 
 
-def singular_xi():
-    """xi_p = xi~/|xi~|, xi~ = d/dt(dl/dOm) - (dl/dOm) x Om (the constraint force lambda*xi),
-    and its time derivative, for a given Om_p with derivatives Om_p', Om_p''.
-
-    Valid for constraints whose Om-gradient is xi itself (phi = <Om, xi>), checked here."""
-    s = Suslov()
-    if not is_zero((s.gphi_om - M.xi).norm() ** 2):
-        raise AssertionError("singular solution assumes dphi/dOm = xi")
-    mom = s.mom
-    xt = mom.jacobian(M.Om) * M.OmDot - cross(mom, M.Om)
-    return xt
+def singular_xi(opt):
+    """xi~ = d/dt(dl/dOm) - ad*_Om (dl/dOm) = I Om' - ad*_Om I Om (the constraint force
+    lambda xi of the Euler-Poincare-Suslov equation) for a given Om_p with derivative Om_p';
+    xi_p = xi~/|xi~| is the singular control (section 5.1, for gamma = 0)."""
+    s = opt.suslov
+    return s.mom.jacobian(opt.M.Om) * opt.M.OmDot - s.ad_star_mom
 
 
 # ---------------------------------------------------------------------------------------------
@@ -276,32 +294,36 @@ class DirectTranscription:
     asserted symmetric at seeded points and emitted from its upper triangle.
     """
 
-    Z = list(M.Om) + list(M.xi) + list(M.xiDot)
     W = sp.Symbol("w", real=True)  # weight of the cost in the point Lagrangian
-    LAM = list(sp.symbols("lam1:7", real=True))  # multipliers of the 6 dynamics rows
 
     def __init__(self, opt):
+        M = self.M = opt.M
+        self.Z = list(M.Om) + list(M.xi) + list(M.xiDot)
+        # multipliers of the 2n dynamics rows
+        self.LAM = list(sp.symbols(f"lam1:{2 * M.n + 1}", real=True))
         self.suslov = opt.suslov
         self.C = opt.C  # in Om, OmDot, xi, xiDot, Om_d; OmDot is assigned on-shell below
 
     def program(self, extra_inputs=()):
         """A program over z, Om_d (and `extra_inputs`) whose first assignments are
         lambda and Om_dot = F(z). Returns (program, f) with f the 6 dynamics entries."""
+        M = self.M
         prog = Program(self.Z + list(M.Om_d) + list(extra_inputs), M.PARAMS)
         om_dot = self.suslov.let_omega_dot(prog)
         return prog, list(om_dot) + list(M.xiDot)
 
     def dynamics_jacobian(self, prog, f):
-        """df/dz, 6 x 9."""
+        """df/dz, 2n x 3n."""
         return prog.jacobian(f, self.Z)
 
     def cost_gradient(self, prog):
-        """(dL/dz, dL/dOm_d) as column matrices (9, 3)."""
-        J = prog.jacobian([self.C], self.Z + list(M.Om_d))
-        return J[0, :9].T, J[0, 9:].T
+        """(dL/dz, dL/dOm_d) as column matrices (3n, n)."""
+        J = prog.jacobian([self.C], self.Z + list(self.M.Om_d))
+        nz = len(self.Z)
+        return J[0, :nz].T, J[0, nz:].T
 
     def lagrangian_hessian(self, prog, f, check_points=3, seed=7):
-        """The Hessian of l = w L + <lam, f> w.r.t. v = [z, Om_d] (12 x 12), symmetric.
+        """The Hessian of l = w L + <lam, f> w.r.t. v = [z, Om_d] (4n x 4n), symmetric.
 
         Forward over forward: the gradient is a Jacobian through the program (prefix d), the
         Hessian the Jacobian of that gradient (prefix dd). H[i][j] = d/dv_j (dl/dv_i) and
@@ -309,6 +331,7 @@ class DirectTranscription:
         points (mpmath, 40 digits) and the upper triangle is returned mirrored, so that the
         emitted Hessian is symmetric to the last bit.
         """
+        M = self.M
         v = self.Z + list(M.Om_d)
         ell = self.W * self.C + sum(l * e for l, e in zip(self.LAM, f))
         grad_ = prog.jacobian([ell], v, prefix="d")

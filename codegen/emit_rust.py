@@ -140,6 +140,7 @@ class Arg:
     symbols: list
     doc: str
     sample: object = None  # callable(rng, index) -> float, for test vectors
+    sample_vector: object = None  # callable(rng) -> list of floats (instead of `sample`)
 
 
 @dataclass

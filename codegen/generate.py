@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Generate the Rust model from model.py: `python3 codegen/generate.py --out DIR`.
+"""Generate the Rust models from codegen/models/*.py: `python3 codegen/generate.py --out DIR`.
 
-Writes, deterministically (run with PYTHONHASHSEED=0; build.rs does):
-  DIR/suslov_model.rs    the generated functions and metadata (included by src/model/mod.rs)
-  DIR/suslov_vectors.rs  `check_vectors`: sympy-evaluated outputs at seeded sample points
-  DIR/formulas.txt       the derived formulas in readable form (guarded by an insta snapshot)
+Writes, deterministically (run with PYTHONHASHSEED=0; build.rs does), for each model NAME:
+  DIR/NAME_model.rs     the generated functions and metadata
+  DIR/NAME_vectors.rs   `check_vectors`: sympy-evaluated outputs at seeded sample points
+  DIR/NAME_formulas.txt the derived formulas in readable form (guarded by an insta snapshot)
+and DIR/models.rs, one module per model (included by src/model/mod.rs).
 
 Exit status 3 means the environment is wrong (sympy missing or not the pinned version).
 """
@@ -28,13 +29,15 @@ def pinned_sympy():
 
 
 def source_hash():
-    """sha256 over the codegen sources (top-level *.py and requirements.txt), sorted by name.
+    """sha256 over the codegen sources (top-level *.py, models/*.py and requirements.txt),
+    sorted by relative path ("/"-separated).
 
     build.rs computes the same hash to decide whether a committed copy is current."""
     h = hashlib.sha256()
-    names = sorted(n for n in os.listdir(HERE)
-                   if n.endswith(".py") or n == "requirements.txt")
-    for n in names:
+    names = [n for n in os.listdir(HERE) if n.endswith(".py") or n == "requirements.txt"]
+    names += ["models/" + n for n in os.listdir(os.path.join(HERE, "models"))
+              if n.endswith(".py")]
+    for n in sorted(names):
         with open(os.path.join(HERE, n), "rb") as fh:
             data = fh.read()
         h.update(n.encode() + b"\0" + data + b"\0")
@@ -55,43 +58,57 @@ if sp.__version__ != pinned_sympy():
 sys.path.insert(0, HERE)
 import control as CTRL  # noqa: E402
 import derive as D  # noqa: E402
-import model as M  # noqa: E402
+import model as MODEL  # noqa: E402
 from emit_rust import Arg, Function, Out, Scalar, emit_function, emit_vector_checks, \
     flat_outputs  # noqa: E402
 from slp import Program  # noqa: E402
 
 T_SPAN = sp.Symbol("t_span", positive=True)
 S_NORM = sp.Symbol("s", real=True)
-OMA = M.vec("OmEnd")
 
 
 def u(lo, hi):
     return lambda rng, i: rng.uniform(lo, hi)
 
 
-def state_sample(rng, i):
-    if 3 <= i < 6:  # xi: keep away from 0 (Suslov's equations need xi != 0)
-        return rng.choice([-1, 1]) * rng.uniform(0.4, 1.6)
-    return rng.uniform(-2.0, 2.0)
+def state_sampler(n):
+    def sample(rng, i):
+        if n <= i < 2 * n:  # xi: keep away from 0 (Suslov's equations need xi != 0)
+            return rng.choice([-1, 1]) * rng.uniform(0.4, 1.6)
+        return rng.uniform(-2.0, 2.0)
+    return sample
 
 
-def param_sample(rng, i):
-    return rng.uniform(0.5, 3.0) if i < 3 else rng.uniform(0.1, 2.0)
+def param_sampler(M):
+    """Sample the user parameters from the model's ranges; derived constants (I^-1) are
+    computed from the sampled inertia (40 digits), so test vectors are consistent."""
+    def sample_vector(rng):
+        vals = [rng.uniform(*M.sample_range(p)) for p in M.user_params]
+        if M.derived:
+            sub = {p.symbol: sp.Float(v, 40) for p, v in zip(M.user_params, vals)}
+            inv = M.INERTIA.subs(sub).evalf(40).inv()
+            vals += [float(inv[i, j]) for _, (i, j) in M.derived]
+        return vals
+    return sample_vector
 
 
-def args_common():
+def args_common(M):
+    names = ", ".join(str(s) for s in M.PARAMS)
     return (
-        Arg("y", M.STATE, "the state [Omega, xi, xi_dot, kappa]", state_sample),
-        Arg("p", M.PARAMS, "the constants [I1, I2, I3, alpha, beta, gamma, eta, delta]",
-            param_sample),
+        Arg("y", M.STATE, "the state [Omega, xi, xi_dot, kappa]", state_sampler(M.n)),
+        Arg("p", M.PARAMS, f"the constants [{names}]", None, param_sampler(M)),
         Arg("w", list(M.Om_d) + list(M.Om_dDot),
             "the desired path at this time [Omega_d, Omega_d']", u(-2.0, 2.0)),
     )
 
 
 def build_functions(opt):
+    M = opt.M
+    n, ny = M.n, len(M.STATE)
+    state_sample = state_sampler(n)
+    OMA = MODEL.vec("OmEnd", n)
     fns = []
-    y_arg, p_arg, w_arg = args_common()
+    y_arg, p_arg, w_arg = args_common(M)
     inputs = M.STATE + list(M.Om_d) + list(M.Om_dDot)
 
     # ---- ODE right-hand side, physical time --------------------------------------------
@@ -102,7 +119,7 @@ def build_functions(opt):
         "The optimality system dy/dt = f(y, Omega_d) in physical time: Omega' from Suslov's\n"
         "equations (q = 0), xi'' by Sherman-Morrison, kappa' from the Euler-Lagrange\n"
         "equation in Omega (paper eq. p_sys_explicit).",
-        prog, [y_arg, p_arg, w_arg], [Out("out", sp.Matrix(f), "array", "f(y), 12 entries")]))
+        prog, [y_arg, p_arg, w_arg], [Out("out", sp.Matrix(f), "array", f"f(y), {ny} entries")]))
 
     # ---- scaled to s in [0, 1], t = a + s T -------------------------------------------
     prog = Program(inputs, M.PARAMS + [T_SPAN, S_NORM])
@@ -118,9 +135,9 @@ def build_functions(opt):
     prog = Program(inputs, M.PARAMS + [T_SPAN, S_NORM])
     f, *_ = opt.rhs_program(prog)
     J = prog.jacobian(f, M.STATE + list(M.Om_d))
-    Jy = J[:, :12] * T_SPAN
-    dT = sp.Matrix([f[i] + T_SPAN * S_NORM * sum(J[i, 12 + k] * M.Om_dDot[k] for k in range(3))
-                    for i in range(12)])
+    Jy = J[:, :ny] * T_SPAN
+    dT = sp.Matrix([f[i] + T_SPAN * S_NORM * sum(J[i, ny + k] * M.Om_dDot[k] for k in range(n))
+                    for i in range(ny)])
     fns.append(Function(
         "ode_jac_scaled",
         "Jacobians of the scaled system g(s, y, T) = T f(y, Omega_d(a + s T)):\n"
@@ -132,15 +149,15 @@ def build_functions(opt):
     # ---- boundary conditions -------------------------------------------------------------
     ep_inputs = M.STATE + list(OMA)
     end_arg = Arg("omega_end", list(OMA), "the prescribed Omega at this end", u(-2.0, 2.0))
-    prog = D.onshell_program(ep_inputs, M.PARAMS)
+    prog = D.onshell_program(opt, ep_inputs)
     bc = list(M.Om - OMA) + list(D.natural_bc(opt))
     fns.append(Function(
         "bc_endpoint",
         "Boundary conditions at either end (paper eqs. p_lbc, p_rbc): Omega = Omega_end and\n"
         "the natural condition p_xi = dL/dxi' = <kappa, xi> Omega + beta xi' = 0 (xi is free).",
         prog, [y_arg, p_arg, end_arg],
-        [Out("out", sp.Matrix(bc), "array", "the 6 residuals")]))
-    prog = D.onshell_program(ep_inputs, M.PARAMS)
+        [Out("out", sp.Matrix(bc), "array", f"the {len(bc)} residuals")]))
+    prog = D.onshell_program(opt, ep_inputs)
     Jbc = prog.jacobian(bc, M.STATE)
     fns.append(Function(
         "bc_endpoint_jac", "Jacobian of `bc_endpoint` with respect to the state y.",
@@ -150,50 +167,51 @@ def build_functions(opt):
     wb_arg = Arg("wb", list(M.Om_d) + list(M.Om_dDot),
                  "the desired path at the terminal time [Omega_d(b), Omega_d'(b)]", u(-2.0, 2.0))
     ftc = D.free_time_condition(opt)
-    prog = D.onshell_program(inputs, M.PARAMS)
+    prog = D.onshell_program(opt, inputs)
     fns.append(Function(
         "free_time_condition",
         "Transversality condition for a free terminal time (paper eq. p_rbc, third line):\n"
         "C - <p_Omega, Omega'> at t = b, with p_Omega = dL/dOmega'. Vanishes at the optimum.",
         prog, [y_arg, p_arg, wb_arg], [Out("value", ftc, "return", "the residual")]))
-    prog = D.onshell_program(inputs, M.PARAMS)
+    prog = D.onshell_program(opt, inputs)
     Jf = prog.jacobian([ftc], M.STATE + list(M.Om_d))
-    d_t = sum(Jf[0, 12 + k] * M.Om_dDot[k] for k in range(3))
+    d_t = sum(Jf[0, ny + k] * M.Om_dDot[k] for k in range(n))
     fns.append(Function(
         "free_time_condition_jac",
         "Gradient of `free_time_condition` w.r.t. y(b), and its derivative w.r.t. T = b - a\n"
         "through Omega_d(b) (returned).",
         prog, [y_arg, p_arg, wb_arg],
-        [Out("d_y", sp.Matrix(Jf[0, :12]), "array", "d/dy(b)"),
+        [Out("d_y", sp.Matrix(Jf[0, :ny]), "array", "d/dy(b)"),
          Out("d_t", d_t, "return", "d/dT")]))
 
-    prog = D.onshell_program(inputs, M.PARAMS)
+    time_weight = next(p for p in M.weights if p.role == "time")
+    prog = D.onshell_program(opt, inputs)
     fns.append(Function(
         "delta_start",
         "The delta that makes the free-time condition hold at the current terminal state\n"
         "(paper eq. delta_c_rbc): the start of the delta continuation stage.",
         prog, [y_arg, p_arg, wb_arg],
-        [Out("value", -ftc.subs(M.delta, 0), "return", "delta_c")]))
+        [Out("value", -ftc.subs(time_weight.symbol, 0), "return", "delta_c")]))
 
-    prog = D.onshell_program(inputs, M.PARAMS)
+    prog = D.onshell_program(opt, inputs)
     fns.append(Function(
         "cost_integrand", "The running cost C on a solution (Omega' = F(Omega, xi, xi')).",
         prog, [y_arg, p_arg, w_arg], [Out("value", opt.C, "return", "C")]))
 
-    prog = D.onshell_program(inputs, M.PARAMS)
+    prog = D.onshell_program(opt, inputs)
     fns.append(Function(
         "energy_function",
         "E = <p_Omega, Omega'> + <p_xi, xi'> - L on a solution. Along solutions\n"
         "dE/dt = -dC/dt|explicit = gamma <Omega - Omega_d, Omega_d'> (a check of the system).",
         prog, [y_arg, p_arg, w_arg], [Out("value", D.energy_function(opt), "return", "E")]))
 
-    prog = D.onshell_program(inputs, M.PARAMS)
+    prog = D.onshell_program(opt, inputs)
     fns.append(Function(
         "classical_costates",
-        "The costates pi of the classical 6-state Hamiltonian formulation,\n"
+        "The costates pi of the classical Hamiltonian formulation (state [Omega, xi]),\n"
         "pi = -[p_Omega; p_xi] (paper, after eq. red_Hamiltonian).",
         prog, [y_arg, p_arg, w_arg],
-        [Out("out", D.classical_costates(opt), "array", "pi, 6 entries")]))
+        [Out("out", D.classical_costates(opt), "array", f"pi, {2 * n} entries")]))
 
     # ---- Suslov's pure equations ----------------------------------------------------------
     x_syms = list(M.Om) + list(M.xi) + list(M.xiDot)
@@ -218,10 +236,10 @@ def build_functions(opt):
     # ---- the analytic singular solution (section 5.1) ------------------------------------
     sp_syms = list(M.Om) + list(M.OmDot) + list(M.OmDDot)
     prog = Program(sp_syms, M.PARAMS)
-    xt = prog.let("xt", D.singular_xi())
+    xt = prog.let("xt", D.singular_xi(opt))
     nrm = prog.let("xtn", sp.sqrt(sum(e ** 2 for e in xt)))
     xi_p = prog.let("xip", xt / nrm)
-    dxt = D.total_derivative(D.singular_xi())
+    dxt = D.total_derivative(M, D.singular_xi(opt))
     dxt_s = prog.let("dxt", dxt)
     xi_p_dot = (dxt_s - xi_p * sum(a * b for a, b in zip(xi_p, dxt_s))) / nrm
     fns.append(Function(
@@ -234,8 +252,8 @@ def build_functions(opt):
 
     # ---- controllability of the pure equations (section 4.3, codegen/control.py) ---------
     aff = CTRL.AffineSystem(opt.suslov)
-    cx_arg = Arg("x", CTRL.X, "the state [Omega, xi] (xi != 0)", state_sample)
-    prog = Program(CTRL.X, M.PARAMS)
+    cx_arg = Arg("x", aff.X, "the state [Omega, xi] (xi != 0)", state_sample)
+    prog = Program(aff.X, M.PARAMS)
     fns.append(Function(
         "control_fields",
         "Suslov's pure equations as a control-affine system x' = f(x) + sum_i g_i(x) u_i with\n"
@@ -244,7 +262,7 @@ def build_functions(opt):
         prog, [cx_arg, p_arg],
         [Out("out", aff.fields_matrix(), "matrix",
              "rows f, g1, g2, g3; `out[k][j]` = component j of field k")]))
-    prog = Program(CTRL.X, M.PARAMS)
+    prog = Program(aff.X, M.PARAMS)
     fns.append(Function(
         "lie_brackets",
         "The Lie brackets [g_i, g_j] = (Dg_j) g_i - (Dg_i) g_j of the control fields of\n"
@@ -264,7 +282,7 @@ def build_functions(opt):
         "The dynamics of the direct transcription, x' = f(z) = [F(Omega, xi, xi'); xi'] with F\n"
         "Suslov's Omega' (as `suslov_omega_dot`), and its Jacobian df/dz.",
         prog, [z_arg, p_arg],
-        [Out("f", sp.Matrix(f), "array", "f(z), 6 entries"),
+        [Out("f", sp.Matrix(f), "array", f"f(z), {len(f)} entries"),
          Out("f_z", dt.dynamics_jacobian(prog, f), "matrix",
              "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j")]))
     prog, f = dt.program()
@@ -279,16 +297,18 @@ def build_functions(opt):
          Out("value", dt.C, "return", "L")]))
     prog, f = dt.program([dt.W] + dt.LAM)
     H = dt.lagrangian_hessian(prog, f)
+    nz = len(dt.Z)
     fns.append(Function(
         "direct_hessian",
         "Second derivatives of the point Lagrangian l = w L(z, Omega_d) + sum_i lam_i f_i(z) of\n"
         "the direct transcription (f does not depend on Omega_d). Exactly symmetric.",
         prog, [z_arg, p_arg, od_arg,
                Scalar(dt.W, "the weight w of the running cost L", u(0.1, 2.0)),
-               Arg("lam", dt.LAM, "the multipliers of the six dynamics rows f_i", u(-2.0, 2.0))],
-        [Out("h_zz", H[:9, :9], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
-         Out("h_zd", H[:9, 9:], "matrix", "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
-         Out("h_dd", H[9:, 9:], "matrix", "d2l/dOmega_d2")]))
+               Arg("lam", dt.LAM, "the multipliers of the dynamics rows f_i", u(-2.0, 2.0))],
+        [Out("h_zz", H[:nz, :nz], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
+         Out("h_zd", H[:nz, nz:], "matrix",
+             "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
+         Out("h_dd", H[nz:, nz:], "matrix", "d2l/dOmega_d2")]))
     return fns
 
 
@@ -301,7 +321,11 @@ def sample(fns, n_points=4, seed=20261122):
         for _ in range(n_points):
             vals, inputs = {}, []
             for a in fn.args:
-                if isinstance(a, Arg):
+                if isinstance(a, Arg) and a.sample_vector is not None:
+                    v = a.sample_vector(rng)
+                    vals.update(zip(a.symbols, v))
+                    inputs.append(v)
+                elif isinstance(a, Arg):
                     v = [a.sample(rng, i) for i in range(len(a.symbols))]
                     vals.update(zip(a.symbols, v))
                     inputs.append(v)
@@ -344,58 +368,178 @@ def formulas_text(opt, fns):
 
 
 HEADER = """\
-// @generated by codegen/generate.py from codegen/model.py. DO NOT EDIT.
-// Regenerate: edit codegen/model.py and run `cargo build` (see codegen/README.md).
+// @generated by codegen/generate.py from codegen/models/{model}.py. DO NOT EDIT.
+// Regenerate: edit the model file and run `cargo build` (see codegen/README.md).
 // sympy {version}; codegen sources sha256 {hash}
 """
 
 
-def module_text(fns, h):
-    y = ", ".join(f'"{n}"' for n in M.STATE_NAMES)
-    pn = ", ".join(f'"{p}"' for p in M.PARAMS)
-    pd = ",\n    ".join(f'"{d}"' for d in M.PARAM_DOCS)
-    parts = [HEADER.format(version=sp.__version__, hash=h),
+def rust_str(text):
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def rust_f64(v):
+    return "None" if v is None else f"Some({float(v)!r})"
+
+
+def param_meta(M, p):
+    return (f"ParamMeta {{ name: {rust_str(p.name)}, index: {M.PARAMS.index(p.symbol)}, "
+            f"doc: {rust_str(p.doc)}, lower: {rust_f64(p.lower)}, upper: {rust_f64(p.upper)}, "
+            f"strict: {'true' if p.strict else 'false'}, "
+            f"role: HomotopyRole::{p.role.capitalize()} }}")
+
+
+def metadata(M):
+    """Rust constants describing the model: sizes, layouts, names, parameter metadata."""
+    n, ny = M.n, len(M.STATE)
+    strs = lambda xs: ", ".join(rust_str(str(x)) for x in xs)  # noqa: E731
+    parts = [
+        f"/// The model's name (`codegen/models/{M.NAME}.py`).\n"
+        f"pub const MODEL_NAME: &str = {rust_str(M.NAME)};",
+        f"/// One line on what the model is.\npub const MODEL_TITLE: &str = {rust_str(M.TITLE)};",
+        f"/// Dimension n of the Lie algebra (Omega, xi, kappa each have n entries).\n"
+        f"pub const DIM: usize = {n};",
+        f"/// Names of the basis elements of the Lie algebra, in order.\n"
+        f"pub const BASIS_NAMES: [&str; {n}] = [{strs(M.algebra.names)}];",
+        f"/// Number of states y = [Omega, xi, xi', kappa].\npub const N_STATE: usize = {ny};",
+        f"/// Names of the states, in order.\n"
+        f"pub const STATE_NAMES: [&str; {ny}] = [{strs(M.STATE_NAMES)}];",
+    ]
+    for k, (block, label) in enumerate(M.BLOCKS):
+        parts.append(f"/// Where {label} sits in the state y.\n"
+                     f"pub const {block.upper()}: core::ops::Range<usize> = "
+                     f"{k * n}..{(k + 1) * n};")
+    parts += [
+        f"/// Number of constants p (user parameters, then derived constants).\n"
+        f"pub const N_PARAM: usize = {len(M.PARAMS)};",
+        f"/// Number of user parameters (inertia, weights, constraint value) at the front of p.\n"
+        f"pub const N_USER_PARAM: usize = {M.N_USER_PARAMS};",
+        f"/// Names of the constants p, in order.\n"
+        f"pub const PARAM_NAMES: [&str; {len(M.PARAMS)}] = [{strs(M.PARAMS)}];",
+        f"/// What each constant means.\npub const PARAM_DOCS: [&str; {len(M.PARAMS)}] = [\n    "
+        + ",\n    ".join(rust_str(d) for d in M.PARAM_DOCS) + ",\n];",
+        "/// Index of each constant in p, by name.\npub mod idx {\n"
+        + "\n".join(f"    /// `{s}`.\n    pub const {str(s).upper()}: usize = {i};"
+                     for i, s in enumerate(M.PARAMS)) + "\n}",
+    ]
+    for const, group, what in [("INERTIA_PARAMS", M.inertia_params, "the inertia operator"),
+                               ("WEIGHTS", M.weights, "the cost"),
+                               ("CONSTRAINT_PARAMS", M.constraint_params,
+                                "the constraint value gamma")]:
+        body = "".join(f"\n    {param_meta(M, p)}," for p in group)
+        parts.append(f"/// The parameters of {what}.\n"
+                     f"pub const {const}: [ParamMeta; {len(group)}] = [{body}{chr(10) if group else ''}];")
+    der = ", ".join(f"({M.PARAMS.index(s)}, {i}, {j})" for s, (i, j) in M.derived)
+    parts.append(f"/// Derived constants: (index in p, row, column) of each entry of I^-1 that the\n"
+                 f"/// caller fills by inverting `inertia_matrix` (empty for a diagonal inertia).\n"
+                 f"pub const INERTIA_INVERSE_SLOTS: [(usize, usize, usize); {len(M.derived)}] = "
+                 f"[{der}];")
+    if M.algebra.matrices is not None:
+        k = M.algebra.matrices[0].rows
+        mats = ",\n    ".join(
+            "[" + ", ".join("[" + ", ".join(f"{float(m[r, c])!r}" for c in range(k)) + "]"
+                            for r in range(k)) + "]" for m in M.algebra.matrices)
+        parts.append(f"/// A faithful matrix representation of the basis ({k} x {k} matrices), for\n"
+                     f"/// the reconstruction g' = g hat(Omega).\n"
+                     f"pub const REPRESENTATION: [[[f64; {k}]; {k}]; {n}] = [\n    {mats},\n];")
+    parts += [
+        f"/// Number of desired-path inputs w = [Omega_d, Omega_d'].\n"
+        f"pub const N_DESIRED: usize = {2 * n};",
+        f"/// Number of boundary conditions at each end (without the free-time condition).\n"
+        f"pub const N_BC_ENDPOINT: usize = {2 * n};",
+        f"/// Number of Lie brackets [g_i, g_j], i < j, of the control fields.\n"
+        f"pub const N_BRACKETS: usize = {n * (n - 1) // 2};",
+    ]
+    return parts
+
+
+def module_text(M, fns, h):
+    parts = [HEADER.format(model=M.NAME, version=sp.__version__, hash=h),
+             "use super::{HomotopyRole, ParamMeta};",
              f'/// The sympy version that derived these formulas.\n'
              f'pub const SYMPY_VERSION: &str = "{sp.__version__}";',
              f'/// sha256 of the codegen sources these formulas came from.\n'
-             f'pub const SOURCE_HASH: &str = "{h}";',
-             "/// Number of states y = [Omega, xi, xi', kappa].\npub const N_STATE: usize = 12;",
-             f"/// Names of the states, in order.\npub const STATE_NAMES: [&str; 12] = [{y}];",
-             f"/// Number of constants p.\npub const N_PARAM: usize = {len(M.PARAMS)};",
-             f"/// Names of the constants p, in order.\n"
-             f"pub const PARAM_NAMES: [&str; {len(M.PARAMS)}] = [{pn}];",
-             f"/// What each constant means.\n"
-             f"pub const PARAM_DOCS: [&str; {len(M.PARAMS)}] = [\n    {pd},\n];",
-             "/// Number of desired-path inputs w = [Omega_d, Omega_d'].\n"
-             "pub const N_DESIRED: usize = 6;",
-             "/// Number of boundary conditions at each end (without the free-time condition).\n"
-             "pub const N_BC_ENDPOINT: usize = 6;"]
+             f'pub const SOURCE_HASH: &str = "{h}";'] + metadata(M)
     for fn in fns:
         parts.append(emit_function(fn))
     return "\n\n".join(parts) + "\n"
 
 
+def generate_model(name, out, h):
+    """Derive one model and write its three files into `out` (atomically, each)."""
+    M = MODEL.load(name)
+    opt = D.Optimality(M)
+    fns = build_functions(opt)
+    sample(fns)
+    header = HEADER.format(model=name, version=sp.__version__, hash=h)
+    files = {
+        f"{name}_model.rs": module_text(M, fns, h),
+        f"{name}_vectors.rs": header + "\n" + emit_vector_checks(fns) + "\n",
+        f"{name}_formulas.txt": formulas_text(opt, fns),
+    }
+    for fname, text in files.items():
+        write(out, fname, text)
+    return name
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, help="output directory")
+    ap.add_argument("--models", nargs="*", help="models to generate (default: all shipped)")
     args = ap.parse_args()
     os.makedirs(args.out, exist_ok=True)
     h = source_hash()
-    opt = D.Optimality()
-    fns = build_functions(opt)
-    sample(fns)
-    files = {
-        "suslov_model.rs": module_text(fns, h),
-        "suslov_vectors.rs": HEADER.format(version=sp.__version__, hash=h) + "\n"
-        + emit_vector_checks(fns) + "\n",
-        "formulas.txt": formulas_text(opt, fns),
-    }
-    for name, text in files.items():
-        path = os.path.join(args.out, name)
-        tmp = path + ".tmp"
-        with open(tmp, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
+    names = args.models or MODEL.available()
+    for name in names:
+        generate_model(name, args.out, h)
+    write(args.out, "models.rs", index_text(names, h))
+    write(args.out, "vectors.rs", vectors_index_text(names, h))
+
+
+ALLOW = "#[allow(clippy::all, non_snake_case, unused_variables, unused_parens, " \
+    "clippy::too_many_arguments, clippy::excessive_precision)]"
+
+
+def index_text(names, h):
+    """models.rs: one module per model (included by src/model/mod.rs), and `vectors`, the
+    test-vector checks of every model (included by tests/generated_vectors.rs)."""
+    lines = [HEADER.format(model="*", version=sp.__version__, hash=h)]
+    for name in names:
+        M = MODEL.load(name)
+        lines += [f"/// `{name}`: {M.TITLE} (generated from `codegen/models/{name}.py`).",
+                  ALLOW,
+                  f'pub mod {name} {{\n    include!(concat!(env!("OUT_DIR"), "/{name}_model.rs"));\n}}',
+                  ""]
+    lines.append("/// The shipped models, by name (`codegen/models/*.py`).")
+    lines.append(f"pub const MODEL_NAMES: [&str; {len(names)}] = "
+                 f"[{', '.join(rust_str(n) for n in names)}];")
+    return "\n".join(lines) + "\n"
+
+
+def vectors_index_text(names, h):
+    """vectors.rs: `check_all`, the test-vector checks of every model (included by
+    tests/generated_vectors.rs)."""
+    lines = [HEADER.format(model="*", version=sp.__version__, hash=h)]
+    for name in names:
+        lines += [ALLOW,
+                  f"pub mod {name} {{\n    use suslov::model::{name}::*;\n"
+                  f'    include!(concat!(env!("OUT_DIR"), "/{name}_vectors.rs"));\n}}', ""]
+    lines += ["/// Every model's `check_vectors(rtol)`, messages prefixed by the model's name.",
+              "pub fn check_all(rtol: f64) -> Vec<String> {",
+              "    let mut failures = Vec::new();"]
+    for name in names:
+        lines.append(f"    failures.extend({name}::check_vectors(rtol).into_iter()"
+                     f".map(|m| format!(\"{name}: {{m}}\")));")
+    lines += ["    failures", "}"]
+    return "\n".join(lines) + "\n"
+
+
+def write(out, fname, text):
+    path = os.path.join(out, fname)
+    tmp = path + ".tmp"
+    with open(tmp, "w") as fh:
+        fh.write(text)
+    os.replace(tmp, path)
 
 
 if __name__ == "__main__":

@@ -1,99 +1,213 @@
-"""The Suslov optimal-control model: the ONE file to edit to change the physics or the cost.
+"""Models: one file per model in `models/`, turned into the symbols the derivation uses.
 
-Everything downstream (the Euler-Lagrange derivation in `derive.py`, the Rust emitter in
-`emit_rust.py`, the generated Jacobians and the test vectors) is computed from the objects
-defined here. Change the cost integrand or the constraint, run `cargo build`, and the crate is
-rebuilt against the new equations (see codegen/README.md).
+A model file (`models/<name>.py`, see models/so3.py for the reference and codegen/README.md
+"Model files" for the format) declares, and nothing else:
 
-Conventions
------------
-* Body frame with principal axes, so the inertia tensor is diag(I1, I2, I3).
-* `Om` is the body angular velocity Omega, `xi` the constraint (control) direction, `Om_d` the
-  desired body angular velocity (a runtime input that depends on time).
-* Jet symbols: `OmDot` is dOmega/dt, `xiDot` is dxi/dt, etc. The derivation treats them as
-  independent symbols and applies the total time derivative itself.
+* `NAME`, `TITLE` and a module docstring;
+* `ALGEBRA`: a `lie.LieAlgebra` (basis names and structure constants, or a faithful matrix
+  representation, which reconstruction g' = g hat(Omega) also uses);
+* `INERTIA_PARAMS`: the named runtime parameters of the inertia operator (`Param`s) and
+  `inertia(p)`: the n x n symmetric matrix of the inertia operator I: g -> g*, Pi = I Omega;
+* `WEIGHTS`: the named weights of the cost (`Param`s with docs, admissible ranges and their role
+  in the homotopy) and `cost(w, Om, OmDot, xi, xiDot, Om_d)`: the integrand C;
+* optionally `CONSTRAINT_PARAMS` and `constraint_value(c, xi)`: gamma(xi) in <xi, Omega> =
+  gamma(xi) (0 when absent);
+* optionally `SAMPLES`: {param name: (lo, hi)} ranges for the generator's test vectors.
+
+`load(name)` returns a `Model`: the model's declarations plus the symbols of the optimality
+system (Om, xi, their jets, kappa, the desired path Om_d), the state layout and the runtime
+constant vector `PARAMS` = inertia parameters, weights, constraint parameters and, when the
+inertia is not diagonal, the entries of I^-1 (derived constants the caller fills by a numeric
+inversion; they keep the generated expressions small).
+
+Conventions: g = R^n in the declared basis, <mu, X> = sum mu_i X_i, ad*_X = (ad_X)^T, and the
+norms in a cost are Euclidean in coordinates.
 """
+
+import importlib.util
+import os
+from dataclasses import dataclass
 
 import sympy as sp
 
+HERE = os.path.dirname(os.path.abspath(__file__))
+MODELS_DIR = os.path.join(HERE, "models")
 
-def vec(name, n=3):
+# Homotopy roles of a weight (how the solver reaches its target value; see src/suslov/solve.rs).
+ROLES = {
+    "fixed": "used at its target value from the start",
+    "beta": "control effort: the start uses a small beta_m, then continued to the target",
+    "tracking": "continued from the start's value to the target (the tracking stage)",
+    "smoothing": "continued from 0 to the target (the smoothing stage)",
+    "time": "weight of the terminal time: continued from delta_c (free terminal time only)",
+    "constraint": "constraint value: continued from 0 to the target",
+}
+
+
+@dataclass
+class Param:
+    """A named runtime constant of a model.
+
+    `lower`/`upper` bound the admissible values (None: unbounded); `strict` makes the lower
+    bound exclusive. `role` is one of ROLES (weights and constraint parameters only)."""
+    name: str
+    doc: str
+    lower: object = None
+    upper: object = None
+    strict: bool = False
+    role: str = "fixed"
+
+    def __post_init__(self):
+        if self.role not in ROLES:
+            raise ValueError(f"{self.name}: unknown homotopy role {self.role!r}")
+        self.symbol = sp.Symbol(self.name, real=True)
+
+    def positive_symbol(self):
+        """Inertia parameters with an exclusive lower bound 0 are positive symbols."""
+        if self.lower == 0 and self.strict:
+            self.symbol = sp.Symbol(self.name, positive=True)
+
+    def range_text(self):
+        lo = "-inf" if self.lower is None else f"{self.lower}"
+        hi = "inf" if self.upper is None else f"{self.upper}"
+        return f"{'(' if self.strict or self.lower is None else '['}{lo}, {hi}{')' if self.upper is None else ']'}"
+
+
+def vec(name, n):
     """A column vector of real symbols name1..nameN."""
     return sp.Matrix(sp.symbols(f"{name}1:{n + 1}", real=True))
 
 
-# ---------------------------------------------------------------------------------------------
-# Runtime constants (one value per solve). Order = order of the `p` array in the generated code.
-I1, I2, I3 = sp.symbols("I1 I2 I3", positive=True)
-alpha, beta, gamma, eta, delta = sp.symbols("alpha beta gamma eta delta", real=True)
-PARAMS = [I1, I2, I3, alpha, beta, gamma, eta, delta]
-PARAM_DOCS = [
-    "principal moment of inertia I1 (> 0)",
-    "principal moment of inertia I2 (> 0)",
-    "principal moment of inertia I3 (> 0)",
-    "alpha: weight of (|xi|^2 - 1)^2 / 4, keeps |xi| near 1 (> 0)",
-    "beta: weight of |xi_dot|^2 / 2, the control effort (> 0; beta = 0 is singular)",
-    "gamma: weight of |Omega - Omega_d|^2 / 2, tracking of the desired path (>= 0)",
-    "eta: weight of |Omega_dot|^2 / 2, smoothness of Omega (>= 0)",
-    "delta: weight of the time, delta * (b - a) (>= 0)",
-]
-
-INERTIA = sp.diag(I1, I2, I3)
-
-# ---------------------------------------------------------------------------------------------
-# Configuration variables and their jets.
-Om, OmDot, OmDDot = vec("Om"), vec("OmDot"), vec("OmDDot")
-xi, xiDot, xiDDot = vec("xi"), vec("xiDot"), vec("xiDDot")
-kappa, kappaDot = vec("kappa"), vec("kappaDot")
-# Time-dependent runtime input and its jet.
-Om_d, Om_dDot, Om_dDDot = vec("Omd"), vec("OmdDot"), vec("OmdDDot")
-
-# The state of the first-order BVP system (order matters: it is the layout of `y`).
-STATE = list(Om) + list(xi) + list(xiDot) + list(kappa)
-STATE_NAMES = ["omega1", "omega2", "omega3", "xi1", "xi2", "xi3",
-               "xidot1", "xidot2", "xidot3", "kappa1", "kappa2", "kappa3"]
-
-# The time derivative, symbol by symbol (the derivation's total derivative d/dt).
-JET = {}
-for a, b in zip(Om, OmDot):
-    JET[a] = b
-for a, b in zip(OmDot, OmDDot):
-    JET[a] = b
-for a, b in zip(xi, xiDot):
-    JET[a] = b
-for a, b in zip(xiDot, xiDDot):
-    JET[a] = b
-for a, b in zip(kappa, kappaDot):
-    JET[a] = b
-for a, b in zip(Om_d, Om_dDot):
-    JET[a] = b
-for a, b in zip(Om_dDot, Om_dDDot):
-    JET[a] = b
-
-# ---------------------------------------------------------------------------------------------
-# Physics: the reduced Lagrangian on so(3) and the nonholonomic constraint.
+def sq(v):
+    """Euclidean squared norm of a column vector."""
+    return (v.T * v)[0, 0]
 
 
-def body_lagrangian(Om):
-    """Kinetic energy of the free rigid body, l(Omega) = 1/2 <I Omega, Omega>."""
-    return sp.Rational(1, 2) * (Om.T * INERTIA * Om)[0, 0]
+class _Names:
+    """Attribute access to symbols by name (w.alpha, p.I1)."""
+
+    def __init__(self, params):
+        for p in params:
+            setattr(self, p.name, p.symbol)
 
 
-def constraint(Om, xi):
-    """Suslov's constraint phi(Omega, xi) = <Omega, xi>, required to vanish."""
-    return (Om.T * xi)[0, 0]
+def _load_spec(name):
+    path = os.path.join(MODELS_DIR, f"{name}.py")
+    if not os.path.isfile(path):
+        raise ValueError(f"no model file {path}")
+    spec = importlib.util.spec_from_file_location(f"suslov_models_{name}", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
 
 
-# ---------------------------------------------------------------------------------------------
-# The cost integrand C(Omega, Omega_dot, xi, xi_dot, Omega_d) (eq. cost_function).
+def available():
+    """The shipped model names (models/*.py), sorted."""
+    return sorted(f[:-3] for f in os.listdir(MODELS_DIR)
+                  if f.endswith(".py") and not f.startswith("_"))
 
 
-def cost(Om, OmDot, xi, xiDot, Om_d):
-    """C = alpha/4 (|xi|^2 - 1)^2 + beta/2 |xi_dot|^2 + gamma/2 |Om - Om_d|^2
-         + eta/2 |Om_dot|^2 + delta."""
-    sq = lambda v: (v.T * v)[0, 0]  # noqa: E731
-    return (alpha / 4 * (sq(xi) - 1) ** 2
-            + beta / 2 * sq(xiDot)
-            + gamma / 2 * sq(Om - Om_d)
-            + eta / 2 * sq(OmDot)
-            + delta)
+class Model:
+    """A model file plus the symbols of its optimality system."""
+
+    def __init__(self, spec):
+        self.spec = spec
+        self.NAME = spec.NAME
+        self.TITLE = spec.TITLE
+        self.DOC = (spec.__doc__ or "").strip()
+        self.algebra = spec.ALGEBRA
+        n = self.n = self.algebra.n
+        self.inertia_params = list(spec.INERTIA_PARAMS)
+        for p in self.inertia_params:
+            p.positive_symbol()
+        self.weights = list(spec.WEIGHTS)
+        self.constraint_params = list(getattr(spec, "CONSTRAINT_PARAMS", []))
+        user = self.inertia_params + self.weights + self.constraint_params
+        names = [p.name for p in user]
+        if len(set(names)) != len(names):
+            raise ValueError(f"{self.NAME}: parameter names must be distinct: {names}")
+        self.user_params = user
+        self.INERTIA = sp.Matrix(spec.inertia(_Names(self.inertia_params)))
+        if self.INERTIA.shape != (n, n):
+            raise ValueError(f"{self.NAME}: the inertia must be {n} x {n}")
+        if not (self.INERTIA - self.INERTIA.T).is_zero_matrix:
+            raise ValueError(f"{self.NAME}: the inertia must be symmetric")
+        self.inertia_diagonal = all(self.INERTIA[i, j] == 0
+                                    for i in range(n) for j in range(n) if i != j)
+        if self.inertia_diagonal:
+            self.INERTIA_INV = sp.diag(*[1 / self.INERTIA[i, i] for i in range(n)])
+            self.derived = []
+        else:
+            sym = {}
+            for i in range(n):
+                for j in range(i, n):
+                    sym[(i, j)] = sym[(j, i)] = sp.Symbol(f"Iinv{i + 1}{j + 1}", real=True)
+            self.INERTIA_INV = sp.Matrix(n, n, lambda i, j: sym[(i, j)])
+            self.derived = [(sym[(i, j)], (i, j)) for i in range(n) for j in range(i, n)]
+        self.PARAMS = [p.symbol for p in user] + [s for s, _ in self.derived]
+        self.N_USER_PARAMS = len(user)
+        self.PARAM_DOCS = [p.doc for p in user] + [
+            f"derived: entry ({i + 1}, {j + 1}) of the inverse inertia I^-1 (filled by the "
+            "caller)" for _, (i, j) in self.derived]
+        for p in user:
+            setattr(self, p.name, p.symbol)
+
+        # Configuration variables, their jets, the costate and the desired path.
+        self.Om, self.OmDot, self.OmDDot = vec("Om", n), vec("OmDot", n), vec("OmDDot", n)
+        self.xi, self.xiDot, self.xiDDot = vec("xi", n), vec("xiDot", n), vec("xiDDot", n)
+        self.kappa, self.kappaDot = vec("kappa", n), vec("kappaDot", n)
+        self.Om_d, self.Om_dDot, self.Om_dDDot = vec("Omd", n), vec("OmdDot", n), vec("OmdDDot", n)
+        # The state of the first-order BVP system (order = the layout of `y`).
+        self.STATE = list(self.Om) + list(self.xi) + list(self.xiDot) + list(self.kappa)
+        self.BLOCKS = [("omega", "Omega"), ("xi", "xi"), ("xidot", "xi'"), ("kappa", "kappa")]
+        self.STATE_NAMES = [f"{b}{i + 1}" for b, _ in self.BLOCKS for i in range(n)]
+        self.JET = {}
+        for lo, hi in [(self.Om, self.OmDot), (self.OmDot, self.OmDDot), (self.xi, self.xiDot),
+                       (self.xiDot, self.xiDDot), (self.kappa, self.kappaDot),
+                       (self.Om_d, self.Om_dDot), (self.Om_dDot, self.Om_dDDot)]:
+            for a, b in zip(lo, hi):
+                self.JET[a] = b
+
+    # -- physics ---------------------------------------------------------------------------
+    def body_lagrangian(self, Om):
+        """l(Omega) = 1/2 <I Omega, Omega>."""
+        return sp.Rational(1, 2) * (Om.T * self.INERTIA * Om)[0, 0]
+
+    def constraint_value(self, xi):
+        """gamma(xi) in <xi, Omega> = gamma(xi) (0 by default)."""
+        f = getattr(self.spec, "constraint_value", None)
+        return sp.Integer(0) if f is None else sp.sympify(f(_Names(self.constraint_params), xi))
+
+    def constraint(self, Om, xi):
+        """phi(Omega, xi) = <Omega, xi> - gamma(xi), required to vanish."""
+        return (Om.T * xi)[0, 0] - self.constraint_value(xi)
+
+    def cost(self, Om, OmDot, xi, xiDot, Om_d):
+        """The cost integrand C of the model file."""
+        return self.spec.cost(_Names(self.weights), Om, OmDot, xi, xiDot, Om_d)
+
+    def ad_star(self, X, mu):
+        return self.algebra.ad_star(X, mu)
+
+    def inverse_substitution(self):
+        """{Iinv_ij: (I^-1)_ij} as expressions of the inertia parameters (for checks)."""
+        if not self.derived:
+            return {}
+        inv = self.INERTIA.inv()
+        return {s: sp.simplify(inv[i, j]) for s, (i, j) in self.derived}
+
+    def sample_range(self, p):
+        ranges = getattr(self.spec, "SAMPLES", {})
+        if p.name in ranges:
+            return ranges[p.name]
+        return (0.5, 3.0) if p in self.inertia_params else (0.1, 2.0)
+
+
+_CACHE = {}
+
+
+def load(name="so3"):
+    """The model `models/<name>.py` (cached)."""
+    if name not in _CACHE:
+        _CACHE[name] = Model(_load_spec(name))
+    return _CACHE[name]

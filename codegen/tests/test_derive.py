@@ -15,11 +15,12 @@ CODEGEN = os.path.dirname(HERE)
 sys.path.insert(0, CODEGEN)
 
 import derive as D  # noqa: E402
-import model as M  # noqa: E402
+import model  # noqa: E402
 from emit_rust import RustPrinter  # noqa: E402
 from slp import Program  # noqa: E402
 
-OPT = D.Optimality()
+M = model.load("so3")
+OPT = D.Optimality(M)
 
 
 def random_values(rng, symbols):

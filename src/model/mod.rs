@@ -1,24 +1,70 @@
-//! The Suslov optimal-control model, generated from first principles.
+//! The models, generated from first principles: one module per file `codegen/models/<name>.py`.
 //!
-//! Everything in [`generated`] is emitted by the sympy program in `codegen/` (see
-//! `codegen/README.md`): the model (`codegen/model.py`: inertia, the constraint `⟨Ω, ξ⟩ = 0`
-//! and the cost integrand) is turned into Suslov's equations, the costate (κ) equations, the
-//! explicit `ξ̈` by Sherman–Morrison, the boundary conditions and every Jacobian, and printed as
-//! allocation-free Rust functions writing into caller-provided fixed-size arrays.
+//! Each model module (e.g. [`so3`]) is emitted by the sympy program in `codegen/` (see
+//! `codegen/README.md`): the model file declares the Lie algebra (structure constants or a
+//! matrix representation), the inertia operator, the constraint value and the cost; one
+//! derivation (the paper's section 3, for any Lie algebra) turns it into Suslov's equations,
+//! the costate (κ) equations, the explicit `ξ̈` by Sherman–Morrison, the boundary conditions,
+//! the singular start, the control-affine form with its Lie brackets, the direct-transcription
+//! functions and every Jacobian, printed as allocation-free Rust functions writing into
+//! caller-provided fixed-size arrays.
 //!
-//! Layout of the arrays (also available as constants, so no caller hard-codes them):
-//! - `y` = [`generated::STATE_NAMES`]: `[Ω₁, Ω₂, Ω₃, ξ₁, ξ₂, ξ₃, ξ̇₁, ξ̇₂, ξ̇₃, κ₁, κ₂, κ₃]`;
-//! - `p` = [`generated::PARAM_NAMES`]: `[I₁, I₂, I₃, α, β, γ, η, δ]`;
-//! - `w` = `[Ω_d, Ω̇_d]`, the desired path and its time derivative at the current time.
+//! Every layout is in the generated metadata, so no caller re-types it: `DIM`, `N_STATE`,
+//! `STATE_NAMES` and the state blocks `OMEGA`, `XI`, `XIDOT`, `KAPPA` (ranges into `y`);
+//! `N_PARAM`, `PARAM_NAMES`, `PARAM_DOCS`, the index of each constant by name (`idx::BETA`),
+//! and [`ParamMeta`] for the inertia parameters, the weights and the constraint parameters
+//! (docs, admissible ranges, [`HomotopyRole`]). `w` = `[Ω_d, Ω̇_d]` is the desired path and its
+//! time derivative at the current time.
 
-/// The generated functions and metadata (`@generated` by `codegen/generate.py`).
-#[allow(
-    clippy::all,
-    non_snake_case,
-    unused_variables,
-    unused_parens,
-    clippy::too_many_arguments
-)]
-pub mod generated {
-    include!(concat!(env!("OUT_DIR"), "/suslov_model.rs"));
+/// What a weight (or constraint parameter) does in the staged homotopy that reaches it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HomotopyRole {
+    /// Used at its target value from the start.
+    Fixed,
+    /// The control effort: the start uses a small value `beta_m`, then it is continued.
+    Beta,
+    /// Tracking weight: continued from the start's value to the target.
+    Tracking,
+    /// Smoothing weight: continued from 0 to the target.
+    Smoothing,
+    /// Weight of the terminal time: continued from `δ_c` (free terminal time only).
+    Time,
+    /// Constraint value: continued from 0 to the target.
+    Constraint,
 }
+
+/// Generated metadata of one runtime constant of a model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ParamMeta {
+    /// Name (the problem-file key).
+    pub name: &'static str,
+    /// Index in the constant vector `p`.
+    pub index: usize,
+    /// What it means.
+    pub doc: &'static str,
+    /// Lower bound of the admissible values, if any.
+    pub lower: Option<f64>,
+    /// Upper bound of the admissible values, if any.
+    pub upper: Option<f64>,
+    /// Whether the lower bound is exclusive.
+    pub strict: bool,
+    /// Its role in the homotopy.
+    pub role: HomotopyRole,
+}
+
+impl ParamMeta {
+    /// Whether `v` is admissible (finite and within the bounds).
+    pub fn admits(&self, v: f64) -> bool {
+        v.is_finite()
+            && self
+                .lower
+                .is_none_or(|lo| if self.strict { v > lo } else { v >= lo })
+            && self.upper.is_none_or(|hi| v <= hi)
+    }
+}
+
+include!(concat!(env!("OUT_DIR"), "/models.rs"));
+
+/// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
+/// solves.
+pub use so3 as generated;
