@@ -13,6 +13,7 @@
 //! - [`ocp`]: generic optimal control: direct transcription, KKT conditions and the
 //!   second-order (local minimum) certificate.
 //! - [`ivp`]: adaptive high-order IVP integration, for a-posteriori checks.
+//! - [`reconstruct`]: the group motion `ġ = g Ω̂` on any matrix Lie group (4th-order Magnus).
 //! - [`suslov`](mod@suslov): the problem layer (problem data and validation, desired paths with
 //!   exact derivatives, the analytic singular start, the staged homotopy of the paper's
 //!   section 5.2, diagnostics).
@@ -75,6 +76,7 @@ pub mod echo;
 pub mod ivp;
 pub mod model;
 pub mod ocp;
+pub mod reconstruct;
 pub mod report;
 pub mod suslov;
 
