@@ -25,10 +25,13 @@ compared in codegen/tests/test_control.py, not used here.
 """
 
 import itertools
+import random
 
+import mpmath
 import sympy as sp
 
 import derive as D
+from slp import Program
 
 
 def lie_bracket(a, b, x):
@@ -46,57 +49,115 @@ def _check(cond, what):
 
 
 class AffineSystem:
-    """Drift f, control fields g_i and the brackets [g_i, g_j] of Suslov's pure equations."""
+    """Drift f, control fields g_i and the brackets [g_i, g_j] of Suslov's pure equations.
 
-    def __init__(self, suslov):
+    `f` and `g` are sympy expressions (x_dot = f + G u with lambda substituted, not
+    simplified); `program()` builds the straight-line program the generator emits, in which
+    the brackets are forward-mode Jacobians through the program (no symbolic rational-function
+    arithmetic, so a 6-dimensional algebra derives in seconds); `brackets` is the symbolic
+    version, computed on demand (tests of the so(3) case against the paper). The structure
+    checks run on the program at seeded points in 40-digit arithmetic.
+    """
+
+    def __init__(self, suslov, check_points=3, seed=11):
         s = suslov
         M = self.M = s.M
         n = M.n
-        self.X = X = list(M.Om) + list(M.xi)
+        self.X = list(M.Om) + list(M.xi)
         self.U = U = list(M.xiDot)
         self.PAIRS = list(itertools.combinations(range(n), 2))
         self.suslov = s
-        xdot = sp.Matrix(list(s.omega_dot) + U)  # x_dot(x, u) with u = xi_dot
-        G = xdot.jacobian(U).applyfunc(sp.cancel)  # 2n x n, columns g_i
+        omdot = s.omdot_of_lam.subs(s.lam_symbol, s.lam)
+        xdot = sp.Matrix(list(omdot) + U)  # x_dot(x, u) with u = xi_dot
+        G = xdot.jacobian(U)  # 2n x n, columns g_i
         _check(not (set().union(*[e.free_symbols for e in G]) & set(U)),
                "d x_dot / d u depends on u (not control-affine)")
-        f = xdot.subs({v: 0 for v in U}).applyfunc(sp.cancel)
-        _check(all(_zero(e) for e in xdot - f - G * sp.Matrix(U)),
-               "x_dot != f + sum g_i u_i")
-        self.f = f
+        self.f = xdot.subs({v: 0 for v in U})
         self.g = [G[:, i] for i in range(n)]
-        self.brackets = [lie_bracket(self.g[i], self.g[j], X) for i, j in self.PAIRS]
+        self._xdot = xdot
+        self._brackets = None
+        self.spherical_symbol = sp.Symbol("c", positive=True)
+        self._check(check_points, seed)
 
-        # -- structure checks (I^-1 replaced by the inverse of the inertia) -----------------
-        inv = M.inverse_substitution()
+    @property
+    def brackets(self):
+        """[g_i, g_j] (i < j) as cancelled sympy expressions (slow for large n)."""
+        if self._brackets is None:
+            g = [v.applyfunc(sp.cancel) for v in self.g]
+            self._brackets = [lie_bracket(g[i], g[j], self.X) for i, j in self.PAIRS]
+        return self._brackets
+
+    def program(self):
+        """(program over x, rows f, g_1..g_n as lists, brackets as lists), for emission."""
+        M, n = self.M, self.M.n
+        prog = Program(self.X, M.PARAMS)
+        om_u = {v: 0 for v in self.U}
+        lam0 = prog.let("lam", self.suslov.lam.subs(om_u))  # lambda at u = 0
+        dlam = prog.let("dlam", sp.Matrix([sp.diff(self.suslov.lam, v) for v in self.U]))
+        # Om_dot = I^-1 (ad*_Om I Om + lambda xi) is affine in lambda, lambda affine in u.
+        om = self.suslov.omdot_of_lam
+        f_om = prog.let("fom", om.subs(self.suslov.lam_symbol, lam0))
+        dom = om.diff(self.suslov.lam_symbol)  # I^-1 xi
+        f = list(f_om) + [0] * n
+        g = []
+        for i in range(n):
+            gi = prog.let(f"g{i + 1}_", dom * dlam[i])
+            g.append(list(gi) + [1 if k == i else 0 for k in range(n)])
+        # Dg_i (2n x 2n) through the program; [g_i, g_j] = Dg_j g_i - Dg_i g_j.
+        flat = [e for gi in g for e in gi[:n]]
+        J = prog.jacobian(flat, self.X, prefix="dg")
+        Dg = [sp.Matrix.vstack(J[i * n:(i + 1) * n, :], sp.zeros(n, 2 * n)) for i in range(n)]
+        br = []
+        for i, j in self.PAIRS:
+            gi, gj = sp.Matrix(g[i]), sp.Matrix(g[j])
+            br.append(list(Dg[j] * gi - Dg[i] * gj))
+        return prog, [f] + g, br
+
+    def _check(self, points, seed):
+        M, n = self.M, self.M.n
+        prog, rows, br = self.program()
+        fields = rows + br
+        names = ["f"] + [f"g{i + 1}" for i in range(n)] \
+            + [f"[g{i + 1},g{j + 1}]" for i, j in self.PAIRS]
         phi = M.constraint(M.Om, M.xi)
-        energy = M.body_lagrangian(M.Om)
-        dphi = sp.Matrix([phi]).jacobian(X)
-        dE = sp.Matrix([energy]).jacobian(X)
+        dphi = sp.Matrix([phi]).jacobian(self.X)
+        dE = sp.Matrix([M.body_lagrangian(M.Om)]).jacobian(self.X)
         gamma_zero = M.constraint_value(M.xi) == 0
-        # M: <Om, xi> = gamma(xi), solved for Om_1.
-        on_m = {M.Om[0]: (M.constraint_value(M.xi)
-                          - sum(M.Om[i] * M.xi[i] for i in range(1, n))) / M.xi[0]}
-        fields = [("f", f)] + [(f"g{i + 1}", g) for i, g in enumerate(self.g)] \
-            + [(f"[g{i + 1},g{j + 1}]", b) for (i, j), b in zip(self.PAIRS, self.brackets)]
-        for name, v in fields:
-            v = v.subs(inv)
-            _check(_zero((dphi * v)[0, 0]), f"d phi({name}) != 0")
-            if gamma_zero:
-                _check(_zero((dE * v)[0, 0].subs(on_m)), f"d energy({name}) != 0 on M")
-        for b in self.brackets:
-            _check(all(e == 0 for e in b[n:]), "brackets have xi-components")
-        self.spherical_symbol = c = sp.Symbol("c", positive=True)
+        outs = [(dphi * sp.Matrix(v))[0, 0] for v in fields] \
+            + [(dE * sp.Matrix(v))[0, 0] for v in fields] \
+            + [e for v in br for e in v[n:]] + [e for v in fields for e in v]
+        run = prog.evaluator(outs)
+        rng = random.Random(seed)
+        tol = mpmath.mpf(10) ** -25
+        nf = len(fields)
+        for _ in range(points):
+            vals = _sample_params(M, rng)
+            for s in self.X:
+                vals[s] = rng.uniform(-2, 2)
+            if gamma_zero:  # put the point on M: <Om, xi> = 0, solved for Om_1 (50 digits)
+                with mpmath.workdps(50):
+                    vals[M.Om[0]] = -sum(mpmath.mpf(vals[M.Om[i]]) * vals[M.xi[i]]
+                                         for i in range(1, n)) / mpmath.mpf(vals[M.xi[0]])
+            out = run(vals)
+            scale = 1 + max(abs(v) for v in out[-nf * 2 * n:])
+            for k, name in enumerate(names):
+                _check(abs(out[k]) <= tol * scale, f"d phi({name}) != 0")
+                if gamma_zero:
+                    _check(abs(out[nf + k]) <= tol * scale, f"d energy({name}) != 0 on M")
+            _check(all(abs(v) <= tol * scale for v in out[2 * nf:2 * nf + len(br) * n]),
+                   "brackets have xi-components")
+        # Spherical bodies are driftless when the Euclidean metric is ad-invariant.
         self.spherical = None
         ad_invariant = all((M.algebra.ad(e) + M.algebra.ad(e).T).is_zero_matrix
                            for e in sp.eye(n).columnspace())
         if ad_invariant:
+            c = self.spherical_symbol
             params = [p.symbol for p in M.inertia_params]
             sol = sp.solve(list(M.INERTIA - c * sp.eye(n)), params, dict=True)
             if sol:
                 self.spherical = sol[0]
-                sph = dict(sol[0])
-                _check(all(_zero(e.subs(inv).subs(sph)) for e in f),
+                inv = M.inverse_substitution()
+                _check(all(_zero(e.subs(inv).subs(sol[0])) for e in self.f),
                        "f != 0 for a spherical body")
 
     def fields_matrix(self):
@@ -110,3 +171,16 @@ class AffineSystem:
     def accessibility_columns(self):
         """V = [g_1 .. g_n, [g_i, g_j] (i < j)] (paper eq. Veqn for so(3))."""
         return sp.Matrix.hstack(*self.g, *self.brackets)
+
+
+def _sample_params(M, rng):
+    """Seeded parameter values (derived I^-1 entries consistent with the inertia)."""
+    vals = {p.symbol: rng.uniform(*M.sample_range(p)) for p in M.user_params}
+    if M.derived:
+        with mpmath.workdps(50):
+            exact = M.INERTIA.subs({k: sp.Rational(v) for k, v in vals.items()})
+            mat = mpmath.matrix([[mpmath.mpf(e.p) / e.q for e in row] for row in exact.tolist()])
+            inv = mpmath.inverse(mat)
+            for s, (i, j) in M.derived:
+                vals[s] = inv[i, j]
+    return vals

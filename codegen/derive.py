@@ -124,11 +124,10 @@ class Suslov:
         omdot_of_lam = inertia_solve(M, self.ad_star_mom + lam * gphi_om)
         # The constraint is preserved: d/dt phi = <gphi_om, Om_dot> + <gphi_xi, xi_dot> = 0.
         dphi = dot(gphi_om, omdot_of_lam) + dot(gphi_xi, xiDot)
-        den = sp.simplify(sp.diff(dphi, lam))
+        den = sp.expand(sp.diff(dphi, lam))
         if sp.diff(dphi, lam, 2) != 0:
             raise AssertionError("d/dt phi is not linear in lambda")
-        rest = sp.expand(dphi.subs(lam, 0) * den)
-        rest = sp.simplify(rest / den)
+        rest = sp.expand(dphi.subs(lam, 0))
         self.lam_num = -rest  # lambda = lam_num / den
         self.den = den
         self.lam = self.lam_num / den
@@ -137,13 +136,22 @@ class Suslov:
         self.gphi_xi = gphi_xi
         # q = den * (d/dt mom - mom x Om - lambda gphi_om): polynomial in the jets.
         self.q = (den * (dmom - self.ad_star_mom) - self.lam_num * gphi_om).applyfunc(sp.expand)
-        # Om_dot from q = 0 (linear in Om_dot, coefficient den I).
-        A, b = sp.linear_eq_to_matrix(list(self.q), list(OmDot))
-        self.omega_dot = (block_inverse(M, A, "dq/dOm_dot") * b).applyfunc(sp.cancel)
-        # The same solution in structured form, Om_dot = I^-1 (ad*_Om I Om + lambda
-        # dphi/dOm), which is what the generated code evaluates (lambda as a named quantity).
+        # Om_dot = I^-1 (ad*_Om I Om + lambda xi) in structured form, which is what the
+        # generated code evaluates (lambda as a named quantity).
         self.lam_symbol = lam
         self.omdot_of_lam = omdot_of_lam
+        self._omega_dot = None
+
+    @property
+    def omega_dot(self):
+        """Om_dot solved from q = 0 (linear in Om_dot, coefficient den I) as cancelled
+        rational functions: an independent route to the same Om_dot, for tests (slow for
+        large n, hence on demand)."""
+        if self._omega_dot is None:
+            M = self.M
+            A, b = sp.linear_eq_to_matrix(list(self.q), list(M.OmDot))
+            self._omega_dot = (block_inverse(M, A, "dq/dOm_dot") * b).applyfunc(sp.cancel)
+        return self._omega_dot
 
     def let_omega_dot(self, prog):
         """Append lambda and Om_dot to a program; return Om_dot's symbols."""
@@ -207,19 +215,20 @@ class Optimality:
     def rhs_program(self, prog):
         """Append the explicit right-hand side f(y) to `prog`; return f as a list of symbols.
 
-        Assignments, in order: Om_dot (from q = 0); Om'' = a1 - b1 s (from d/dt q = 0);
-        kappa' = c0 + c1 s (from EL_Om); h, w with (m I + w v^T) xi'' = h (from EL_xi);
-        s = <v, h>/(m + <v, w>) and xi'' = (h - w s)/m (Sherman-Morrison); kappa'.
+        Assignments, in order: Om_dot (from q = 0); Om'' = a - b s (from d/dt q = 0, named
+        oa, ob); kappa' = c + e s (from EL_Om, named ka, kb); h, w with (m I + w v^T) xi'' = h
+        (from EL_xi, named sh, sw); s = <v, h>/(m + <v, w>) (sm) and xi'' = (h - w s)/m
+        (Sherman-Morrison); kappa'. The internal names are reserved (model.RESERVED).
         """
         s, M = self.suslov, self.M
         r1, r2, r3 = self.rhs
         om_dot = s.let_omega_dot(prog)
-        a1 = prog.let("a", self.M11inv * r1)
-        b1 = prog.let("b", self.M11inv * self.u)
-        c0 = prog.let("c", self.M23inv * (r2 - self.M21 * a1))
-        c1 = prog.let("e", self.M23inv * self.M21 * b1)
-        h = prog.let("h", r3 - self.M33 * c0)
-        w = prog.let("w", self.M33 * c1)
+        a1 = prog.let("oa", self.M11inv * r1)
+        b1 = prog.let("ob", self.M11inv * self.u)
+        c0 = prog.let("ka", self.M23inv * (r2 - self.M21 * a1))
+        c1 = prog.let("kb", self.M23inv * self.M21 * b1)
+        h = prog.let("sh", r3 - self.M33 * c0)
+        w = prog.let("sw", self.M33 * c1)
         # (m I + w v^T) xi'' = h  =>  s = <v, xi''> = <v, h> / (m + <v, w>)
         sm = prog.let("sm", dot(self.v, h) / (self.m + dot(self.v, w)))
         xi_dd = prog.let(list(M.xiDDot), (h - w * sm) / self.m)

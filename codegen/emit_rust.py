@@ -233,7 +233,11 @@ def emit_body(fn, indent="    "):
     for e in out_exprs:
         for t in sorted((t for t in e.free_symbols if t in nodes), key=index.get):
             visit(t)
-    names = {s: rust_ident(s) for s in nodes}
+    # Intermediate quantities live in one array `t`, not in one `let` each: every `let` opens
+    # a nested lexical scope, and thousands of them (the so4 Jacobians) overflowed the stack
+    # of LLVM's debug-info writer. Constant indices into a local array cost nothing once
+    # optimised (SROA keeps them in registers). The trailing comment keeps the name.
+    names = {s: f"t[{k}]" for k, s in enumerate(order)}
     for a in fn.args:
         for s in (a.symbols if isinstance(a, Arg) else [a.symbol]):
             names[s] = rust_ident(s)
@@ -243,8 +247,10 @@ def emit_body(fn, indent="    "):
         if isinstance(a, Arg):
             for i, s in enumerate(a.symbols):
                 lines.append(f"{indent}let {names[s]} = {a.name}[{i}];")
+    if order:
+        lines.append(f"{indent}let mut t = [0.0f64; {len(order)}];")
     for s in order:
-        lines.append(f"{indent}let {names[s]} = {pr(nodes[s])};")
+        lines.append(f"{indent}{names[s]} = {pr(nodes[s])}; // {rust_ident(s)}")
     k = 0
     for o in fn.outputs:
         if o.kind == "return":

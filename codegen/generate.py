@@ -28,15 +28,17 @@ def pinned_sympy():
     raise SystemExit("codegen/requirements.txt does not pin sympy")
 
 
-def source_hash():
+def source_hash(model=None):
     """sha256 over the codegen sources (top-level *.py, models/*.py and requirements.txt),
-    sorted by relative path ("/"-separated).
+    sorted by relative path ("/"-separated). With `model`, over the top-level sources and that
+    model's file only: the per-model hash recorded in its generated file and cache key.
 
-    build.rs computes the same hash to decide whether a committed copy is current."""
+    build.rs computes the same (all-models) hash to decide whether a committed copy is
+    current."""
     h = hashlib.sha256()
     names = [n for n in os.listdir(HERE) if n.endswith(".py") or n == "requirements.txt"]
     names += ["models/" + n for n in os.listdir(os.path.join(HERE, "models"))
-              if n.endswith(".py")]
+              if n.endswith(".py") and (model is None or n == f"{model}.py")]
     for n in sorted(names):
         with open(os.path.join(HERE, n), "rb") as fh:
             data = fh.read()
@@ -253,23 +255,25 @@ def build_functions(opt):
     # ---- controllability of the pure equations (section 4.3, codegen/control.py) ---------
     aff = CTRL.AffineSystem(opt.suslov)
     cx_arg = Arg("x", aff.X, "the state [Omega, xi] (xi != 0)", state_sample)
-    prog = Program(aff.X, M.PARAMS)
+    prog, rows, brackets = aff.program()
+    field_names = ", ".join(["f"] + [f"g{i + 1}" for i in range(n)])
     fns.append(Function(
         "control_fields",
         "Suslov's pure equations as a control-affine system x' = f(x) + sum_i g_i(x) u_i with\n"
         "x = [Omega, xi], u = xi' (paper eqs. state_eqns, state_f, state_gi): g_i = dx'/du_i,\n"
-        "f = x' at u = 0. f = 0 for a spherical body I = c Id.",
+        "f = x' at u = 0.",
         prog, [cx_arg, p_arg],
-        [Out("out", aff.fields_matrix(), "matrix",
-             "rows f, g1, g2, g3; `out[k][j]` = component j of field k")]))
-    prog = Program(aff.X, M.PARAMS)
+        [Out("out", sp.Matrix(rows), "matrix",
+             f"rows {field_names}; `out[k][j]` = component j of field k")]))
+    pair_names = ", ".join(f"[g{i + 1}, g{j + 1}]" for i, j in aff.PAIRS)
     fns.append(Function(
         "lie_brackets",
-        "The Lie brackets [g_i, g_j] = (Dg_j) g_i - (Dg_i) g_j of the control fields of\n"
-        "`control_fields` (the last three columns of the paper's matrix V, eq. Veqn).",
+        "The Lie brackets [g_i, g_j] = (Dg_j) g_i - (Dg_i) g_j (i < j) of the control fields of\n"
+        "`control_fields` (for so(3): the last three columns of the paper's matrix V, eq. Veqn),\n"
+        "Dg by forward mode through the program.",
         prog, [cx_arg, p_arg],
-        [Out("out", aff.brackets_matrix(), "matrix",
-             "rows [g1, g2], [g1, g3], [g2, g3]; `out[k][j]` = component j")]))
+        [Out("out", sp.Matrix(brackets), "matrix",
+             f"rows {pair_names}; `out[k][j]` = component j")]))
 
     # ---- direct transcription: classical state/control form (derive.DirectTranscription) --
     dt = D.DirectTranscription(opt)
@@ -309,6 +313,14 @@ def build_functions(opt):
          Out("h_zd", H[:nz, nz:], "matrix",
              "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
          Out("h_dd", H[nz:, nz:], "matrix", "d2l/dOmega_d2")]))
+
+    # ---- the inertia operator (callers invert it to fill INERTIA_INVERSE_SLOTS) -----------
+    prog = Program([], M.PARAMS)
+    fns.append(Function(
+        "inertia_matrix",
+        "The inertia operator I (Pi = I Omega) as a matrix in the model's basis, from the\n"
+        "inertia parameters in p (symmetric positive definite for admissible parameters).",
+        prog, [p_arg], [Out("out", M.INERTIA, "matrix", "I, `out[i][j]` = I_ij")]))
     return fns
 
 
@@ -458,11 +470,29 @@ def module_text(M, fns, h):
              "use super::{HomotopyRole, ParamMeta};",
              f'/// The sympy version that derived these formulas.\n'
              f'pub const SYMPY_VERSION: &str = "{sp.__version__}";',
-             f'/// sha256 of the codegen sources these formulas came from.\n'
+             f'/// sha256 of the codegen sources these formulas came from (the top-level\n'
+             f'/// sources and this model\'s file).\n'
              f'pub const SOURCE_HASH: &str = "{h}";'] + metadata(M)
     for fn in fns:
         parts.append(emit_function(fn))
     return "\n\n".join(parts) + "\n"
+
+
+def model_key(name, h):
+    """The cache key of one model's output: the codegen sources' hash and sympy's version."""
+    return f"{name} {h} sympy {sp.__version__}\n"
+
+
+def cached(name, out, h):
+    """Whether `out` holds this model's files for exactly these sources (per-model cache)."""
+    try:
+        with open(os.path.join(out, f".{name}.key")) as fh:
+            key = fh.read()
+    except OSError:
+        return False
+    return key == model_key(name, h) and all(
+        os.path.isfile(os.path.join(out, f"{name}{suffix}"))
+        for suffix in ("_model.rs", "_vectors.rs", "_formulas.txt"))
 
 
 def generate_model(name, out, h):
@@ -479,6 +509,7 @@ def generate_model(name, out, h):
     }
     for fname, text in files.items():
         write(out, fname, text)
+    write(out, f".{name}.key", model_key(name, h))
     return name
 
 
@@ -490,8 +521,16 @@ def main():
     os.makedirs(args.out, exist_ok=True)
     h = source_hash()
     names = args.models or MODEL.available()
-    for name in names:
-        generate_model(name, args.out, h)
+    hashes = {n: source_hash(n) for n in names}
+    todo = [n for n in names if not cached(n, args.out, hashes[n])]
+    if len(todo) > 1:
+        # one process per model (the machine has 2 cores); results are files, so the
+        # output does not depend on the order in which the models finish
+        import multiprocessing
+        with multiprocessing.get_context("fork").Pool(min(len(todo), os.cpu_count() or 1)) as pool:
+            pool.starmap(generate_model, [(n, args.out, hashes[n]) for n in todo])
+    elif todo:
+        generate_model(todo[0], args.out, hashes[todo[0]])
     write(args.out, "models.rs", index_text(names, h))
     write(args.out, "vectors.rs", vectors_index_text(names, h))
 
@@ -510,6 +549,12 @@ def index_text(names, h):
                   ALLOW,
                   f'pub mod {name} {{\n    include!(concat!(env!("OUT_DIR"), "/{name}_model.rs"));\n}}',
                   ""]
+    lines.append("/// sha256 of the codegen sources of every model (build.rs checks the committed copy "
+                 "against it).")
+    lines.append(f'pub const SOURCE_HASH_ALL: &str = "{h}";')
+    lines.append("/// (model, sha256 of its sources) for every model.")
+    pairs = ", ".join(f"({rust_str(n)}, {n}::SOURCE_HASH)" for n in names)
+    lines.append(f"pub const SOURCE_HASHES: [(&str, &str); {len(names)}] = [{pairs}];")
     lines.append("/// The shipped models, by name (`codegen/models/*.py`).")
     lines.append(f"pub const MODEL_NAMES: [&str; {len(names)}] = "
                  f"[{', '.join(rust_str(n) for n in names)}];")

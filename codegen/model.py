@@ -26,6 +26,7 @@ norms in a cost are Euclidean in coordinates.
 
 import importlib.util
 import os
+import re
 from dataclasses import dataclass
 
 import sympy as sp
@@ -71,6 +72,16 @@ class Param:
         lo = "-inf" if self.lower is None else f"{self.lower}"
         hi = "inf" if self.upper is None else f"{self.upper}"
         return f"{'(' if self.strict or self.lower is None else '['}{lo}, {hi}{')' if self.upper is None else ']'}"
+
+
+# Names the derivation uses for its own symbols (followed by digits): a model parameter may not
+# take one of them (checked by Model), nor contain "_" (Jacobian temporaries are d_..., dd_...).
+RESERVED_STEMS = ["Om", "OmDot", "OmDDot", "xi", "xiDot", "xiDDot", "kappa", "kappaDot", "Omd",
+                  "OmdDot", "OmdDDot", "OmEnd", "Iinv", "lam", "lambda", "oa", "ob", "ka", "kb",
+                  "sh", "sw", "sm", "xt", "xtn", "xip", "dxt", "x", "w", "s", "t", "z", "y", "p",
+                  "od", "wb", "out"]
+RESERVED = re.compile(r"^(" + "|".join(RESERVED_STEMS) + r")\d*$")
+IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 
 
 def vec(name, n):
@@ -124,6 +135,11 @@ class Model:
         self.constraint_params = list(getattr(spec, "CONSTRAINT_PARAMS", []))
         user = self.inertia_params + self.weights + self.constraint_params
         names = [p.name for p in user]
+        for nm in names:
+            if not IDENT.match(nm) or RESERVED.match(nm):
+                raise ValueError(f"{self.NAME}: parameter name {nm!r} must be letters and digits "
+                                 f"(starting with a letter) and not one of the derivation's "
+                                 f"names {RESERVED_STEMS} followed by digits: rename it")
         if len(set(names)) != len(names):
             raise ValueError(f"{self.NAME}: parameter names must be distinct: {names}")
         self.user_params = user

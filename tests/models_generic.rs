@@ -1,0 +1,381 @@
+//! Every generated model, checked through its emitted Rust at seeded random points:
+//!
+//! * every Jacobian against central finite differences of the function it differentiates
+//!   (`ode_jac_scaled`, `bc_endpoint_jac`, `free_time_condition_jac`, `direct_dynamics`'s
+//!   `f_z`, `direct_cost`'s gradients, `direct_hessian`, and the Lie brackets of
+//!   `lie_brackets` against finite differences of `control_fields`);
+//! * Suslov's equations keep the constraint and the energy: on `⟨Ω, ξ⟩ = 0`,
+//!   `d/dt ⟨Ω, ξ⟩ = 0` and `d/dt ½⟨IΩ, Ω⟩ = 0`;
+//! * the singular control reproduces a given path: for a jet of `Ω_p` on an energy level set
+//!   (`⟨IΩ_p, Ω̇_p⟩ = 0` and its derivative), Suslov's equations driven by `ξ_p`, `ξ̇_p` give
+//!   back `Ω̇_p`.
+//!
+//! The parameters are drawn from each model's generated `ParamMeta` bounds, and the derived
+//! constants (`I⁻¹` for a non-diagonal inertia) are filled by inverting `inertia_matrix`.
+
+use nalgebra::DMatrix;
+use suslov::model::ParamMeta;
+
+/// A small deterministic generator (splitmix64), so the points are seeded and reproducible.
+struct Rng(u64);
+
+impl Rng {
+    fn next(&mut self) -> f64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    }
+    fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
+        lo + (hi - lo) * self.next()
+    }
+}
+
+/// A value admissible for `m` away from its bounds.
+fn sample_param(m: &ParamMeta, rng: &mut Rng) -> f64 {
+    let v = match m.lower {
+        Some(lo) => lo + rng.uniform(0.5, 2.5),
+        None => rng.uniform(-0.5, 0.5),
+    };
+    assert!(m.admits(v), "{}: {v}", m.name);
+    v
+}
+
+fn close(got: f64, want: f64, rtol: f64) -> bool {
+    (got - want).abs() <= rtol * (1.0 + want.abs())
+}
+
+macro_rules! model_checks {
+    ($m:ident) => {
+        mod $m {
+            use super::*;
+            use suslov::model::$m as g;
+            use suslov::model::$m::*;
+
+            const H: f64 = 1e-6;
+            const RTOL: f64 = 1e-6;
+
+            fn params(rng: &mut Rng) -> [f64; N_PARAM] {
+                let mut p = [0.0; N_PARAM];
+                for m in INERTIA_PARAMS
+                    .iter()
+                    .chain(WEIGHTS.iter())
+                    .chain(CONSTRAINT_PARAMS.iter())
+                {
+                    p[m.index] = sample_param(m, rng);
+                }
+                let mut i = [[0.0; DIM]; DIM];
+                inertia_matrix(&p, &mut i);
+                let mat = DMatrix::from_fn(DIM, DIM, |r, c| i[r][c]);
+                assert!(mat.clone().cholesky().is_some(), "inertia not SPD: {mat}");
+                let inv = mat.try_inverse().expect("invertible inertia");
+                for (slot, r, c) in INERTIA_INVERSE_SLOTS {
+                    p[slot] = inv[(r, c)];
+                }
+                p
+            }
+
+            fn state(rng: &mut Rng) -> [f64; N_STATE] {
+                let mut y = [0.0; N_STATE];
+                for v in y.iter_mut() {
+                    *v = rng.uniform(-1.5, 1.5);
+                }
+                for k in XI {
+                    y[k] = if rng.next() < 0.5 { -1.0 } else { 1.0 } * rng.uniform(0.4, 1.4);
+                }
+                y
+            }
+
+            fn vec_of<const K: usize>(rng: &mut Rng) -> [f64; K] {
+                let mut v = [0.0; K];
+                for x in v.iter_mut() {
+                    *x = rng.uniform(-1.5, 1.5);
+                }
+                v
+            }
+
+            /// Central differences of `f: R^N -> R^M` at `x`, column j = d f / d x_j.
+            fn fd<const N: usize, const M: usize>(
+                x: &[f64; N],
+                mut f: impl FnMut(&[f64; N]) -> [f64; M],
+            ) -> Vec<[f64; M]> {
+                (0..N)
+                    .map(|j| {
+                        let (mut a, mut b) = (*x, *x);
+                        a[j] += H;
+                        b[j] -= H;
+                        let (fa, fb) = (f(&a), f(&b));
+                        let mut col = [0.0; M];
+                        for i in 0..M {
+                            col[i] = (fa[i] - fb[i]) / (2.0 * H);
+                        }
+                        col
+                    })
+                    .collect()
+            }
+
+            #[test]
+            fn layout_metadata_is_consistent() {
+                assert_eq!(N_STATE, 4 * DIM);
+                assert_eq!(STATE_NAMES.len(), N_STATE);
+                assert_eq!((OMEGA.start, KAPPA.end), (0, N_STATE));
+                assert_eq!(PARAM_NAMES.len(), N_PARAM);
+                assert_eq!(
+                    N_USER_PARAM,
+                    INERTIA_PARAMS.len() + WEIGHTS.len() + CONSTRAINT_PARAMS.len()
+                );
+                assert_eq!(N_PARAM, N_USER_PARAM + INERTIA_INVERSE_SLOTS.len());
+                for m in INERTIA_PARAMS.iter().chain(WEIGHTS.iter()) {
+                    assert_eq!(PARAM_NAMES[m.index], m.name);
+                }
+                assert_eq!(N_BRACKETS, DIM * (DIM - 1) / 2);
+                assert_eq!(REPRESENTATION.len(), DIM);
+                assert_eq!(g::MODEL_NAME, stringify!($m));
+            }
+
+            #[test]
+            fn ode_jacobian_matches_finite_differences() {
+                let mut rng = Rng(1);
+                for _ in 0..3 {
+                    let (p, y, w) = (params(&mut rng), state(&mut rng), vec_of(&mut rng));
+                    let t_span = rng.uniform(1.0, 5.0);
+                    let s = rng.uniform(0.0, 1.0);
+                    let mut dgdy = [[0.0; N_STATE]; N_STATE];
+                    let mut dgdt = [0.0; N_STATE];
+                    ode_jac_scaled(&y, &p, &w, t_span, s, &mut dgdy, &mut dgdt);
+                    let cols = fd(&y, |y| {
+                        let mut o = [0.0; N_STATE];
+                        ode_rhs_scaled(y, &p, &w, t_span, &mut o);
+                        o
+                    });
+                    for (j, col) in cols.iter().enumerate() {
+                        for i in 0..N_STATE {
+                            assert!(
+                                close(dgdy[i][j], col[i], RTOL),
+                                "dg{i}/dy{j}: {} vs fd {}",
+                                dgdy[i][j],
+                                col[i]
+                            );
+                        }
+                    }
+                    // dg/dT: the desired path moves with T through t = a + s T.
+                    let shifted = |dt: f64| {
+                        let mut ws = w;
+                        for k in 0..DIM {
+                            ws[k] += s * dt * w[DIM + k];
+                        }
+                        let mut o = [0.0; N_STATE];
+                        ode_rhs_scaled(&y, &p, &ws, t_span + dt, &mut o);
+                        o
+                    };
+                    let (a, b) = (shifted(H), shifted(-H));
+                    for i in 0..N_STATE {
+                        let want = (a[i] - b[i]) / (2.0 * H);
+                        assert!(close(dgdt[i], want, RTOL), "dg{i}/dT");
+                    }
+                }
+            }
+
+            #[test]
+            fn boundary_jacobians_match_finite_differences() {
+                let mut rng = Rng(2);
+                let (p, y) = (params(&mut rng), state(&mut rng));
+                let end: [f64; DIM] = vec_of(&mut rng);
+                let mut d_y = [[0.0; N_STATE]; N_BC_ENDPOINT];
+                bc_endpoint_jac(&y, &p, &end, &mut d_y);
+                let cols = fd(&y, |y| {
+                    let mut o = [0.0; N_BC_ENDPOINT];
+                    bc_endpoint(y, &p, &end, &mut o);
+                    o
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    for i in 0..N_BC_ENDPOINT {
+                        assert!(close(d_y[i][j], col[i], RTOL), "bc{i}/y{j}");
+                    }
+                }
+                let wb: [f64; N_DESIRED] = vec_of(&mut rng);
+                let mut grad = [0.0; N_STATE];
+                free_time_condition_jac(&y, &p, &wb, &mut grad);
+                let cols = fd(&y, |y| [free_time_condition(y, &p, &wb)]);
+                for (j, col) in cols.iter().enumerate() {
+                    assert!(close(grad[j], col[0], RTOL), "ftc/y{j}");
+                }
+            }
+
+            #[test]
+            fn direct_transcription_derivatives_match_finite_differences() {
+                const NZ: usize = 3 * DIM;
+                let mut rng = Rng(3);
+                let p = params(&mut rng);
+                let y = state(&mut rng);
+                let mut z = [0.0; NZ];
+                z.copy_from_slice(&y[..NZ]);
+                let od: [f64; DIM] = vec_of(&mut rng);
+                let lam: [f64; 2 * DIM] = vec_of(&mut rng);
+                let wgt = rng.uniform(0.5, 1.5);
+                let mut f = [0.0; 2 * DIM];
+                let mut f_z = [[0.0; NZ]; 2 * DIM];
+                direct_dynamics(&z, &p, &mut f, &mut f_z);
+                let cols = fd(&z, |z| {
+                    let mut f = [0.0; 2 * DIM];
+                    let mut j = [[0.0; NZ]; 2 * DIM];
+                    direct_dynamics(z, &p, &mut f, &mut j);
+                    f
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    for i in 0..2 * DIM {
+                        assert!(close(f_z[i][j], col[i], RTOL), "f{i}/z{j}");
+                    }
+                }
+                let mut l_z = [0.0; NZ];
+                let mut l_d = [0.0; DIM];
+                direct_cost(&z, &p, &od, &mut l_z, &mut l_d);
+                let cols = fd(&z, |z| {
+                    let (mut a, mut b) = ([0.0; NZ], [0.0; DIM]);
+                    [direct_cost(z, &p, &od, &mut a, &mut b)]
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    assert!(close(l_z[j], col[0], RTOL), "L/z{j}");
+                }
+                // Hessian of l = w L + <lam, f> w.r.t. z: FD of its gradient.
+                let mut h_zz = [[0.0; NZ]; NZ];
+                let mut h_zd = [[0.0; DIM]; NZ];
+                let mut h_dd = [[0.0; DIM]; DIM];
+                direct_hessian(&z, &p, &od, wgt, &lam, &mut h_zz, &mut h_zd, &mut h_dd);
+                let cols = fd(&z, |z| {
+                    let (mut lz, mut ld) = ([0.0; NZ], [0.0; DIM]);
+                    direct_cost(z, &p, &od, &mut lz, &mut ld);
+                    let (mut f, mut fz) = ([0.0; 2 * DIM], [[0.0; NZ]; 2 * DIM]);
+                    direct_dynamics(z, &p, &mut f, &mut fz);
+                    let mut grad = [0.0; NZ];
+                    for j in 0..NZ {
+                        grad[j] =
+                            wgt * lz[j] + (0..2 * DIM).map(|i| lam[i] * fz[i][j]).sum::<f64>();
+                    }
+                    grad
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    for i in 0..NZ {
+                        assert!(close(h_zz[i][j], col[i], 1e-5), "h_zz[{i}][{j}]");
+                        assert_eq!(h_zz[i][j], h_zz[j][i], "symmetric");
+                    }
+                }
+            }
+
+            #[test]
+            fn suslov_equations_keep_the_constraint_and_the_energy() {
+                let mut rng = Rng(4);
+                for _ in 0..5 {
+                    let p = params(&mut rng);
+                    let mut x: [f64; 3 * DIM] = vec_of(&mut rng);
+                    // Put Omega on <Omega, xi> = 0 (remove its component along xi).
+                    let (om, xi) = (&x[..DIM], &x[DIM..2 * DIM]);
+                    let c = (0..DIM).map(|k| om[k] * xi[k]).sum::<f64>()
+                        / (0..DIM).map(|k| xi[k] * xi[k]).sum::<f64>();
+                    for k in 0..DIM {
+                        x[k] -= c * x[DIM + k];
+                    }
+                    let mut om_dot = [0.0; DIM];
+                    suslov_omega_dot(&x, &p, &mut om_dot);
+                    let dphi: f64 = (0..DIM)
+                        .map(|k| x[DIM + k] * om_dot[k] + x[k] * x[2 * DIM + k])
+                        .sum();
+                    let mut i = [[0.0; DIM]; DIM];
+                    inertia_matrix(&p, &mut i);
+                    let de: f64 = (0..DIM)
+                        .map(|r| (0..DIM).map(|c| x[r] * i[r][c] * om_dot[c]).sum::<f64>())
+                        .sum();
+                    assert!(dphi.abs() < 1e-12, "d<Om,xi>/dt = {dphi}");
+                    assert!(de.abs() < 1e-12, "dT/dt = {de}");
+                }
+            }
+
+            #[test]
+            fn singular_control_reproduces_an_energy_preserving_path() {
+                let mut rng = Rng(5);
+                for _ in 0..5 {
+                    let p = params(&mut rng);
+                    let mut jet: [f64; 3 * DIM] = vec_of(&mut rng);
+                    // Omega_p' tangent to the energy level set: <I Om, Om'> = 0.
+                    let mut i = [[0.0; DIM]; DIM];
+                    inertia_matrix(&p, &mut i);
+                    let n: Vec<f64> = (0..DIM)
+                        .map(|r| (0..DIM).map(|c| i[r][c] * jet[c]).sum())
+                        .collect();
+                    let c = (0..DIM).map(|k| n[k] * jet[DIM + k]).sum::<f64>()
+                        / n.iter().map(|v| v * v).sum::<f64>();
+                    for k in 0..DIM {
+                        jet[DIM + k] -= c * n[k];
+                    }
+                    // and staying on it: d/dt <I Om, Om'> = <I Om', Om'> + <I Om, Om''> = 0.
+                    let iom_dot_om_dot: f64 = (0..DIM)
+                        .map(|r| {
+                            (0..DIM)
+                                .map(|c| jet[DIM + r] * i[r][c] * jet[DIM + c])
+                                .sum::<f64>()
+                        })
+                        .sum();
+                    let c2 = ((0..DIM).map(|k| n[k] * jet[2 * DIM + k]).sum::<f64>()
+                        + iom_dot_om_dot)
+                        / n.iter().map(|v| v * v).sum::<f64>();
+                    for k in 0..DIM {
+                        jet[2 * DIM + k] -= c2 * n[k];
+                    }
+                    let mut xi = [0.0; 2 * DIM];
+                    singular_control(&jet, &p, &mut xi);
+                    let mut x = [0.0; 3 * DIM];
+                    x[..DIM].copy_from_slice(&jet[..DIM]);
+                    x[DIM..].copy_from_slice(&xi);
+                    let mut om_dot = [0.0; DIM];
+                    suslov_omega_dot(&x, &p, &mut om_dot);
+                    for k in 0..DIM {
+                        assert!(close(om_dot[k], jet[DIM + k], 1e-11), "Om_dot[{k}]");
+                    }
+                }
+            }
+
+            #[test]
+            fn lie_brackets_match_finite_differences_of_the_fields() {
+                const NX: usize = 2 * DIM;
+                let mut rng = Rng(6);
+                let p = params(&mut rng);
+                let y = state(&mut rng);
+                let mut x = [0.0; NX];
+                x.copy_from_slice(&y[..NX]);
+                let mut fields = [[0.0; NX]; DIM + 1];
+                control_fields(&x, &p, &mut fields);
+                let mut br = [[0.0; NX]; N_BRACKETS];
+                lie_brackets(&x, &p, &mut br);
+                // Dg_i by central differences: dg[i][j][r] = d g_i[r] / d x_j.
+                let dg: Vec<Vec<[f64; NX]>> = (0..DIM)
+                    .map(|i| {
+                        fd(&x, |x| {
+                            let mut f = [[0.0; NX]; DIM + 1];
+                            control_fields(x, &p, &mut f);
+                            f[i + 1]
+                        })
+                    })
+                    .collect();
+                let mut k = 0;
+                for i in 0..DIM {
+                    for j in i + 1..DIM {
+                        for r in 0..NX {
+                            let want: f64 = (0..NX)
+                                .map(|c| {
+                                    dg[j][c][r] * fields[i + 1][c] - dg[i][c][r] * fields[j + 1][c]
+                                })
+                                .sum();
+                            assert!(close(br[k][r], want, 1e-5), "[g{i},g{j}][{r}]");
+                        }
+                        k += 1;
+                    }
+                }
+            }
+        }
+    };
+}
+
+model_checks!(so3);
+model_checks!(se2);
+model_checks!(so4);
