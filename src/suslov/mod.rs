@@ -42,6 +42,7 @@ pub mod desired;
 pub mod diagnostics;
 pub mod ellipsoid;
 pub mod equations;
+pub mod layout;
 pub mod paper;
 pub mod problem;
 pub mod properties;
