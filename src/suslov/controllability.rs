@@ -683,9 +683,9 @@ pub fn report_table(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use nalgebra::{Matrix6, Vector6};
     use crate::suslov::desired::{DesiredPath, PaperSpiral};
     use crate::suslov::singular::singular_control_at;
+    use nalgebra::{Matrix6, Vector6};
 
     fn rng(seed: u64) -> impl FnMut() -> f64 {
         let mut s = seed;
