@@ -309,6 +309,42 @@ def build_functions(opt):
          Out("h_zd", H[:nz, nz:], "matrix",
              "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
          Out("h_dd", H[nz:, nz:], "matrix", "d2l/dOmega_d2")]))
+
+    # ---- the singular solution's jet (section 5.1), for src/suslov/singular.rs ------------
+    # xi~ = I Omega_p' - ad*_Omega_p (I Omega_p), lambda = |xi~|, xi_p = xi~/lambda and their
+    # first two time derivatives; the second needs Omega_p''' (OmDDDot: not in the model's
+    # jet, so a copy of the jet with it is used here).
+    from types import SimpleNamespace
+    om3 = MODEL.vec("OmDDDot", n)
+    jet3 = SimpleNamespace(JET={**M.JET, **dict(zip(M.OmDDot, om3))}, PARAMS=M.PARAMS)
+    sj_syms = list(M.Om) + list(M.OmDot) + list(M.OmDDot) + list(om3)
+    prog = Program(sj_syms, M.PARAMS)
+    xt_e = D.singular_xi(opt)
+    dxt_e = D.total_derivative(M, xt_e)
+    xt = prog.let("xt", xt_e)
+    dxt = prog.let("dxt", dxt_e)
+    ddxt = prog.let("ddxt", D.total_derivative(jet3, dxt_e))
+    lam = prog.let("xtn", sp.sqrt(sum(e ** 2 for e in xt)))
+    xi_p = prog.let("xip", xt / lam)
+    lam_d = prog.let("lamDot", sum(a * b for a, b in zip(xi_p, dxt)))
+    xi_pd = prog.let("xipDot", (dxt - xi_p * lam_d) / lam)
+    lam_dd = prog.let("lamDDot", sum(a * b for a, b in zip(xi_pd, dxt))
+                      + sum(a * b for a, b in zip(xi_p, ddxt)))
+    xi_pdd = (ddxt - 2 * lam_d * xi_pd - lam_dd * xi_p) / lam
+    fns.append(Function(
+        "singular_jet",
+        "The analytic singular solution to second order (paper eq. xi_p_eq):\n"
+        "xi~ = I Omega_p' - (I Omega_p) x Omega_p, lambda = |xi~| (its multiplier),\n"
+        "xi_p = xi~/lambda, and their derivatives lambda' = <xi_p, xi~'>,\n"
+        "xi_p' = (xi~' - lambda' xi_p)/lambda, lambda'' = <xi_p', xi~'> + <xi_p, xi~''>,\n"
+        "xi_p'' = (xi~'' - 2 lambda' xi_p' - lambda'' xi_p)/lambda. Requires |xi~| > 0\n"
+        "(Property 3); Omega_p''' enters xi_p'' and lambda'' only.",
+        prog, [Arg("omega_p", sj_syms, "[Omega_p, Omega_p', Omega_p'', Omega_p''']",
+                   u(-2.0, 2.0)), p_arg],
+        [Out("xi", sp.Matrix(list(xt) + list(xi_p) + list(xi_pd) + list(xi_pdd)), "array",
+             f"[xi~, xi_p, xi_p', xi_p''], {4 * n} entries"),
+         Out("lambda", sp.Matrix([lam, lam_d, lam_dd]), "array",
+             "[lambda, lambda', lambda'']")]))
     return fns
 
 
