@@ -14,8 +14,8 @@
 //! # Measured (tests of this module; `I = diag(1,2,3)`, `Ω_a = [5,0,0]`, `[0, 10]`)
 //!
 //! - **End-to-end check** (singular control of section 5.1 re-integrated, 501 output times,
-//!   `rtol = atol = 1e-12`): `ξ_p` of `φ_∥` reproduces `φ_∥` to `max |ΔΩ| = 2.0e-12`
-//!   (79 steps, 2194 evaluations); `ξ_p` of `Projected(Ω_d)` reproduces it to `1.5e-12`
+//!   `rtol = atol = 1e-12`): `ξ_p` of `φ_∥` reproduces `φ_∥` to `max |ΔΩ| = 1.8e-12`
+//!   (79 steps, 2194 evaluations); `ξ_p` of `Projected(Ω_d)` reproduces it to `2.1e-12`
 //!   (91 steps). Energy drift and `|⟨Ω, ξ⟩|/(|Ω||ξ|)` stay below `5e-13`.
 //! - **Stability experiment (R2Q4) on the singular control of `φ_∥`**, 201 output times:
 //!   - `ξ̇(1 + ε sin 3t)`: `ε = 1e-2` moves `Ω` by at most 0.126 (at t ≈ 7.6; `|Ω| ≈ 3–5`),
