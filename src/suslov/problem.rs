@@ -500,3 +500,50 @@ impl BvpProblem for SuslovBvp<'_> {
         true
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The value of the constant named `name` (a generated `PARAM_NAMES` entry) in `p`.
+    fn by_name(p: &[f64; N_PARAM], name: &str) -> f64 {
+        let i = g::PARAM_NAMES
+            .iter()
+            .position(|n| *n == name)
+            .unwrap_or_else(|| panic!("no constant {name}"));
+        p[i]
+    }
+
+    #[test]
+    fn model_params_puts_every_value_under_its_generated_name() {
+        let w = CostWeights {
+            alpha: 1.5,
+            beta: 0.25,
+            gamma: 3.0,
+            eta: 0.125,
+            delta: 0.75,
+        };
+        let moments = std::array::from_fn(|k| 1.0 + k as f64 / 8.0);
+        let p = model_params(moments, &w);
+        for (meta, m) in g::INERTIA_PARAMS.iter().zip(moments) {
+            assert_eq!(by_name(&p, meta.name), m);
+        }
+        for (name, v) in [
+            ("alpha", w.alpha),
+            ("beta", w.beta),
+            ("gamma", w.gamma),
+            ("eta", w.eta),
+            ("delta", w.delta),
+        ] {
+            assert_eq!(by_name(&p, name), v, "{name}");
+        }
+        assert_eq!(CostWeights::from_params(&p), w);
+        // SuslovProblem::params is the same assembly.
+        let problem = super::super::paper::problem(0.5);
+        assert_eq!(
+            problem.params(),
+            model_params(problem.inertia.diag().into(), &problem.weights)
+        );
+        assert_eq!(CostWeights::from_params(&problem.params()), problem.weights);
+    }
+}
