@@ -15,6 +15,7 @@ import hashlib
 import os
 import random
 import sys
+from types import SimpleNamespace
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -222,7 +223,7 @@ def build_functions(opt):
     om_dot = opt.suslov.let_omega_dot(prog)
     fns.append(Function(
         "suslov_omega_dot",
-        "Suslov's pure equations: Omega' = I^-1 [(I Omega) x Omega + lambda xi] with the\n"
+        "Suslov's pure equations: Omega' = I^-1 [ad*_Omega (I Omega) + lambda xi] with the\n"
         "multiplier lambda (eqs. Suslov_eq_3D, Suslov_lambda), for a given control xi(t).",
         prog, [x_arg, p_arg],
         [Out("out", om_dot, "array", "Omega'"),
@@ -247,7 +248,7 @@ def build_functions(opt):
     fns.append(Function(
         "singular_control",
         "The analytic singular solution's control (paper eq. xi_p_eq): xi_p = xi~/|xi~| with\n"
-        "xi~ = I Omega_p' - (I Omega_p) x Omega_p, and its derivative xi_p'. Requires\n"
+        "xi~ = I Omega_p' - ad*_Omega_p (I Omega_p), and its derivative xi_p'. Requires\n"
         "|xi~| > 0 (Property 3).",
         prog, [Arg("omega_p", sp_syms, "[Omega_p, Omega_p', Omega_p'']", u(-2.0, 2.0)), p_arg],
         [Out("out", sp.Matrix(list(xi_p) + list(xi_p_dot)), "array", "[xi_p, xi_p']")]))
@@ -321,6 +322,41 @@ def build_functions(opt):
         "The inertia operator I (Pi = I Omega) as a matrix in the model's basis, from the\n"
         "inertia parameters in p (symmetric positive definite for admissible parameters).",
         prog, [p_arg], [Out("out", M.INERTIA, "matrix", "I, `out[i][j]` = I_ij")]))
+
+    # ---- the singular solution's jet (section 5.1), for src/suslov/singular.rs ------------
+    # xi~ = I Omega_p' - ad*_Omega_p (I Omega_p), lambda = |xi~|, xi_p = xi~/lambda and their
+    # first two time derivatives; the second needs Omega_p''' (OmDDDot: not in the model's
+    # jet, so a copy of the jet with it is used here).
+    om3 = MODEL.vec("OmDDDot", n)
+    jet3 = SimpleNamespace(JET={**M.JET, **dict(zip(M.OmDDot, om3))}, PARAMS=M.PARAMS)
+    sj_syms = list(M.Om) + list(M.OmDot) + list(M.OmDDot) + list(om3)
+    prog = Program(sj_syms, M.PARAMS)
+    xt_e = D.singular_xi(opt)
+    dxt_e = D.total_derivative(M, xt_e)
+    xt = prog.let("xt", xt_e)
+    dxt = prog.let("dxt", dxt_e)
+    ddxt = prog.let("ddxt", D.total_derivative(jet3, dxt_e))
+    lam = prog.let("xtn", sp.sqrt(sum(e ** 2 for e in xt)))
+    xi_p = prog.let("xip", xt / lam)
+    lam_d = prog.let("lamDot", sum(a * b for a, b in zip(xi_p, dxt)))
+    xi_pd = prog.let("xipDot", (dxt - xi_p * lam_d) / lam)
+    lam_dd = prog.let("lamDDot", sum(a * b for a, b in zip(xi_pd, dxt))
+                      + sum(a * b for a, b in zip(xi_p, ddxt)))
+    xi_pdd = (ddxt - 2 * lam_d * xi_pd - lam_dd * xi_p) / lam
+    fns.append(Function(
+        "singular_jet",
+        "The analytic singular solution to second order (paper eq. xi_p_eq):\n"
+        "xi~ = I Omega_p' - ad*_Omega_p (I Omega_p), lambda = |xi~| (its multiplier),\n"
+        "xi_p = xi~/lambda, and their derivatives lambda' = <xi_p, xi~'>,\n"
+        "xi_p' = (xi~' - lambda' xi_p)/lambda, lambda'' = <xi_p', xi~'> + <xi_p, xi~''>,\n"
+        "xi_p'' = (xi~'' - 2 lambda' xi_p' - lambda'' xi_p)/lambda. Requires |xi~| > 0\n"
+        "(Property 3); Omega_p''' enters xi_p'' and lambda'' only.",
+        prog, [Arg("omega_p", sj_syms, "[Omega_p, Omega_p', Omega_p'', Omega_p''']",
+                   u(-2.0, 2.0)), p_arg],
+        [Out("xi", sp.Matrix(list(xt) + list(xi_p) + list(xi_pd) + list(xi_pdd)), "array",
+             f"[xi~, xi_p, xi_p', xi_p''], {4 * n} entries"),
+         Out("lambda", sp.Matrix([lam, lam_d, lam_dd]), "array",
+             "[lambda, lambda', lambda'']")]))
     return fns
 
 

@@ -31,6 +31,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::config::{self, ConfigError};
+use crate::model::generated::{DIM, KAPPA, OMEGA, XI, XIDOT};
 use crate::report::{
     self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir,
     ReportError, StabilityRun, StageSummary, Summary, TrajectoryTable,
@@ -94,13 +95,15 @@ pub fn trajectory_table(sol: &SuslovSolution, points: usize) -> TrajectoryTable 
             a + (b - a) * k as f64 / (points - 1) as f64
         };
         let y = sol.state(t);
-        let od = sol.problem.desired.value(t);
+        let block = |r: std::ops::Range<usize>| -> [f64; DIM] {
+            y[r].try_into().expect("a state block has DIM entries")
+        };
         table.t.push(t);
-        table.omega.push([y[0], y[1], y[2]]);
-        table.xi.push([y[3], y[4], y[5]]);
-        table.xi_dot.push([y[6], y[7], y[8]]);
-        table.kappa.push([y[9], y[10], y[11]]);
-        table.omega_d.push([od[0], od[1], od[2]]);
+        table.omega.push(block(OMEGA));
+        table.xi.push(block(XI));
+        table.xi_dot.push(block(XIDOT));
+        table.kappa.push(block(KAPPA));
+        table.omega_d.push(sol.problem.desired.value(t).into());
     }
     table
 }
@@ -262,8 +265,7 @@ fn write_case_outputs(
     }
     let inertia = sol.problem.inertia.diag();
     let om_a = sol.problem.omega_a;
-    let ellipsoid =
-        report::EnergyEllipsoid::through([inertia[0], inertia[1], inertia[2]], om_a.into())?;
+    let ellipsoid = report::EnergyEllipsoid::through(inertia.into(), om_a.into())?;
     let mut opts = FigureOptions::new(title, ellipsoid);
     opts.format = FigureFormat::Png;
     // When the optimal b is shorter than the start's b_p (the paper's η = 0.01 case: b = 9.84
@@ -651,8 +653,8 @@ pub fn run_rank_along(
             .iter()
             .map(|&t| {
                 let y = sol.state(t);
-                let om = nalgebra::Vector3::new(y[0], y[1], y[2]);
-                let xi = nalgebra::Vector3::new(y[3], y[4], y[5]);
+                let om = nalgebra::Vector3::from_column_slice(&y[OMEGA]);
+                let xi = nalgebra::Vector3::from_column_slice(&y[XI]);
                 let c = om.dot(&xi);
                 violation = violation.max(c.abs());
                 (
@@ -664,9 +666,9 @@ pub fn run_rank_along(
             .collect();
         match c::rank_along(&sol.problem.inertia, &states, rtol) {
             Ok(r) => {
-                all_accessible &= r.min_rank == 4 && r.max_rank == 4;
+                all_accessible &= r.min_rank == c::DIM_M && r.max_rank == c::DIM_M;
                 text += &format!(
-                    "case {}: rank of V {} at all {} times of [{a}, {b:.6}] (dim M = 4){}\n\
+                    "case {}: rank of V {} at all {} times of [{a}, {b:.6}] (dim M = {}){}\n\
                      \x20 smallest significant singular value {:.4e} (t = {:.4}); largest \
                      sigma_(rank+1)/sigma_rank {:.1e}; max |f| {:.4}; the solution's max \
                      |<Omega, xi>| {:.1e} (xi projected onto Omega^perp for the test)\n",
@@ -677,7 +679,8 @@ pub fn run_rank_along(
                         format!("in {}..={}", r.min_rank, r.max_rank)
                     },
                     r.points,
-                    if r.min_rank == 4 && r.max_rank == 4 {
+                    c::DIM_M,
+                    if r.min_rank == c::DIM_M && r.max_rank == c::DIM_M {
                         ": accessible along the whole optimal trajectory"
                     } else {
                         ""

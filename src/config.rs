@@ -89,12 +89,13 @@ use nalgebra::Vector3;
 use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
+use crate::model::generated::DIM;
 use crate::suslov::desired::{
     Constant, DesiredPath, PaperSpiral, Projected, ProjectedSegment, SampledPath,
 };
 use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
 use crate::suslov::problem::{
-    CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL,
+    CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL, N_INERTIA,
 };
 use crate::suslov::solve::{SolveOptions, StartStrategy};
 use crate::suslov::SuslovError;
@@ -191,7 +192,7 @@ pub struct ProblemFile {
 #[serde(deny_unknown_fields)]
 pub struct BodySection {
     /// Principal moments of inertia.
-    pub inertia: Option<Numbers<3>>,
+    pub inertia: Option<Numbers<N_INERTIA>>,
 }
 
 /// `[boundary]`.
@@ -201,7 +202,7 @@ pub struct BoundarySection {
     /// Initial time (default 0).
     pub t0: Option<f64>,
     /// `Ω(t0)`.
-    pub omega_a: Option<Numbers<3>>,
+    pub omega_a: Option<Numbers<DIM>>,
     /// `Ω(b)`.
     pub omega_b: Option<OmegaBSpec>,
     /// Fixed or free terminal time.
@@ -214,7 +215,7 @@ pub enum OmegaBSpec {
     /// The desired path's end point.
     DesiredEnd,
     /// An explicit vector (as written: its length is checked in [`ProblemFile::build`]).
-    Vector(Numbers<3>),
+    Vector(Numbers<DIM>),
 }
 
 impl<'de> Deserialize<'de> for OmegaBSpec {
@@ -223,7 +224,7 @@ impl<'de> Deserialize<'de> for OmegaBSpec {
         impl<'de> Visitor<'de> for V {
             type Value = OmegaBSpec;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("an array of 3 numbers or the string \"desired_end\"")
+                write!(f, "an array of {DIM} numbers or the string \"desired_end\"")
             }
             fn visit_str<E: de::Error>(self, s: &str) -> Result<OmegaBSpec, E> {
                 if s == "desired_end" {
@@ -353,11 +354,11 @@ pub struct DesiredSection {
     /// paper-spiral: switching time (default 10).
     pub b_d: Option<f64>,
     /// constant: the value.
-    pub value: Option<Numbers<3>>,
+    pub value: Option<Numbers<DIM>>,
     /// segment: start point (default `boundary.omega_a`).
-    pub from: Option<Numbers<3>>,
+    pub from: Option<Numbers<DIM>>,
     /// segment: end point (default `boundary.omega_b`).
-    pub to: Option<Numbers<3>>,
+    pub to: Option<Numbers<DIM>>,
     /// segment: `[start time, end time]` (default `[t0, terminal time]`).
     pub interval: Option<Numbers<2>>,
     /// samples: the CSV file (relative to the problem file).
@@ -1006,7 +1007,7 @@ fn finite(field: &str, value: f64) -> Result<f64, ConfigError> {
 }
 
 /// A 3-vector key: exactly 3 entries, all finite.
-fn vector3(field: &str, v: Numbers<3>) -> Result<Vector3<f64>, ConfigError> {
+fn vector3(field: &str, v: Numbers<DIM>) -> Result<Vector3<f64>, ConfigError> {
     let v = exact(field, v, XYZ)?;
     for (i, x) in v.iter().enumerate() {
         finite(&format!("{field}[{i}]"), *x)?;
@@ -1289,7 +1290,7 @@ impl fmt::Display for Num {
 /// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; a leading byte order mark,
 /// blank lines, `#` comments and a first line that is not numeric (a header) are skipped.
 /// At most [`MAX_SAMPLE_ROWS`] rows. Errors name the line.
-pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), SamplesError> {
+pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; DIM]>), SamplesError> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
     let mut times = Vec::new();
     let mut values = Vec::new();
@@ -1313,7 +1314,7 @@ pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), SamplesErr
                 })
             }
         };
-        if numbers.len() != 4 {
+        if numbers.len() != 1 + DIM {
             return Err(SamplesError::Columns {
                 line: i + 1,
                 found: numbers.len(),
@@ -1339,8 +1340,9 @@ pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; 3]>), SamplesErr
                 limit: MAX_SAMPLE_ROWS,
             });
         }
-        times.push(numbers[0]);
-        values.push([numbers[1], numbers[2], numbers[3]]);
+        let (t, omega) = numbers.split_first().expect("1 + DIM numbers");
+        times.push(*t);
+        values.push(omega.try_into().expect("DIM numbers"));
     }
     if times.len() < 2 {
         return Err(SamplesError::TooFew { found: times.len() });

@@ -32,8 +32,10 @@
 //! assert!(checks.max_abs_constraint < 1e-9); // ⟨Ω, ξ⟩ = 0 on a fine grid
 //! // "Converged" means every a-posteriori check passed at the requested tolerance:
 //! assert!(suslov::suslov::verify::verify_solution(&solution).passed());
-//! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5
-//! assert_eq!(y.len(), 12);
+//! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5, in the generated layout
+//! assert_eq!(y.len(), suslov::model::generated::N_STATE);
+//! let omega = &y[suslov::model::generated::OMEGA];
+//! assert_eq!(omega.len(), suslov::model::generated::DIM); // Ω
 //! # Ok::<(), suslov::suslov::solve::SolveError>(())
 //! ```
 //!
@@ -64,7 +66,8 @@
 //! };
 //! let solution = solve(&problem, &SolveOptions::default(), &mut |_event| {})?;
 //! let y_end = solution.state(6.0);
-//! assert!((Vector3::new(y_end[0], y_end[1], y_end[2]) - omega_b).norm() < 1e-8);
+//! let omega_end = Vector3::from_column_slice(&y_end[suslov::model::generated::OMEGA]);
+//! assert!((omega_end - omega_b).norm() < 1e-8);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 

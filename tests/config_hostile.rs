@@ -522,8 +522,8 @@ fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start(
     let sol = suslov::suslov::solve::solve(&p.problem, &p.options, &mut |_| {}).unwrap();
     assert!(clock.elapsed() < Duration::from_secs(20));
     assert_eq!(sol.start.case, 1);
-    let end: Vec<f64> = sol.bvp.eval(1.0)[..3].to_vec();
-    let end = nalgebra::Vector3::new(end[0], end[1], end[2]);
+    let end =
+        nalgebra::Vector3::from_column_slice(&sol.bvp.eval(1.0)[suslov::model::generated::OMEGA]);
     assert!((end - off).norm() < 1e-8, "{end}");
 }
 

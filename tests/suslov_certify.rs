@@ -8,6 +8,7 @@ use std::path::Path;
 
 mod ocpkit;
 
+use suslov::model::generated as g;
 use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
 use suslov::suslov::certify::{certify, SuslovCertificate};
 use suslov::{paper, solve, SolveOptions, SuslovProblem};
@@ -177,8 +178,11 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
     let ocp = SuslovOcp::new(&sol.problem);
     let tr = transcription(&ocp, &sol).expect("transcription");
     let mut v0: Vec<f64> = Vec::new();
-    for y in sol.bvp.collocation_values().chunks_exact(12) {
-        v0.extend_from_slice(&y[..9]);
+    for y in sol.bvp.collocation_values().chunks_exact(g::N_STATE) {
+        // z = [Omega, xi, xi'] of y = [Omega, xi, xi', kappa].
+        for block in [g::OMEGA, g::XI, g::XIDOT] {
+            v0.extend_from_slice(&y[block]);
+        }
     }
     v0.push(sol.t_span);
     let matrix = KktMatrix::new(&tr, &v0).expect("pattern");

@@ -1,15 +1,109 @@
 //! The trajectory CSV: one row per grid point, full `f64` precision.
 
 use super::{write_atomic, ReportError, TrajectoryTable};
+use crate::model::generated::{DIM, KAPPA, N_STATE, OMEGA, STATE_NAMES, XI, XIDOT};
 use std::fmt::Write as _;
+use std::ops::Range;
 use std::path::Path;
 
-/// The header line of [`write_trajectory_csv`], exactly.
-pub const TRAJECTORY_CSV_HEADER: &str = "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3,\
-kappa1,kappa2,kappa3,omegad1,omegad2,omegad3";
+/// The header line of [`write_trajectory_csv`], exactly: `t`, the generated `STATE_NAMES`
+/// (`omega1, …, kappa3` on so(3)), then `Ω_d` as `omegad1, …, omegad<DIM>`.
+///
+/// `Ω_d` is no state, so the generated names do not name it; its columns are
+/// [`DESIRED_COLUMN_PREFIX`] followed by the 1-based component, the scheme of the state names.
+/// On so(3) this is `t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3,kappa1,kappa2,
+/// kappa3,omegad1,omegad2,omegad3` (without spaces), as always.
+pub const TRAJECTORY_CSV_HEADER: &str = match std::str::from_utf8(&HEADER_BYTES) {
+    Ok(header) => header,
+    Err(_) => panic!("the state names are UTF-8"),
+};
 
-/// Number of columns of the trajectory CSV.
-const COLUMNS: usize = 16;
+/// Prefix of the column names of `Ω_d` (`omegad1`, `omegad2`, …).
+pub const DESIRED_COLUMN_PREFIX: &str = "omegad";
+
+/// Number of columns of the trajectory CSV: `t`, the states, `Ω_d`.
+const COLUMNS: usize = 1 + N_STATE + DIM;
+
+/// Column of state entry `j` is `1 + j`; `Ω_d` follows the states.
+const fn columns(block: Range<usize>) -> Range<usize> {
+    1 + block.start..1 + block.end
+}
+const DESIRED_COLUMNS: Range<usize> = 1 + N_STATE..1 + N_STATE + DIM;
+
+// The table's columns are written in the order of the state blocks, which must be
+// [Ω, ξ, ξ̇, κ], contiguous, for the header (the state names in order) to label them.
+const _: () = assert!(
+    OMEGA.start == 0
+        && OMEGA.end == XI.start
+        && XI.end == XIDOT.start
+        && XIDOT.end == KAPPA.start
+        && KAPPA.end == N_STATE
+);
+
+/// Decimal digits of `k > 0`.
+const fn decimal_len(mut k: usize) -> usize {
+    let mut n = 0;
+    while k > 0 {
+        n += 1;
+        k /= 10;
+    }
+    n
+}
+
+/// Length of [`TRAJECTORY_CSV_HEADER`].
+const HEADER_LEN: usize = {
+    let mut len = 1; // "t"
+    let mut i = 0;
+    while i < STATE_NAMES.len() {
+        len += 1 + STATE_NAMES[i].len();
+        i += 1;
+    }
+    let mut k = 1;
+    while k <= DIM {
+        len += 1 + DESIRED_COLUMN_PREFIX.len() + decimal_len(k);
+        k += 1;
+    }
+    len
+};
+
+/// Copies `s` into `buf` at `at`; returns the position after it.
+const fn put(buf: &mut [u8; HEADER_LEN], mut at: usize, s: &[u8]) -> usize {
+    let mut i = 0;
+    while i < s.len() {
+        buf[at] = s[i];
+        at += 1;
+        i += 1;
+    }
+    at
+}
+
+/// The bytes of [`TRAJECTORY_CSV_HEADER`].
+const HEADER_BYTES: [u8; HEADER_LEN] = {
+    let mut buf = [0u8; HEADER_LEN];
+    let mut at = put(&mut buf, 0, b"t");
+    let mut i = 0;
+    while i < STATE_NAMES.len() {
+        at = put(&mut buf, at, b",");
+        at = put(&mut buf, at, STATE_NAMES[i].as_bytes());
+        i += 1;
+    }
+    let mut k = 1;
+    while k <= DIM {
+        at = put(&mut buf, at, b",");
+        at = put(&mut buf, at, DESIRED_COLUMN_PREFIX.as_bytes());
+        let mut d = decimal_len(k);
+        let mut v = k;
+        while d > 0 {
+            buf[at + d - 1] = b'0' + (v % 10) as u8;
+            v /= 10;
+            d -= 1;
+        }
+        at += decimal_len(k);
+        k += 1;
+    }
+    assert!(at == HEADER_LEN);
+    buf
+};
 
 /// Renders `table` as CSV text (header + one line per row, `\n` line ends).
 ///
@@ -34,7 +128,9 @@ pub fn trajectory_csv_string(table: &TrajectoryTable) -> Result<String, ReportEr
             table.kappa[i],
             table.omega_d[i],
         ] {
-            let _ = write!(s, ",{:e},{:e},{:e}", v[0], v[1], v[2]);
+            for x in v {
+                let _ = write!(s, ",{x:e}");
+            }
         }
         s.push('\n');
     }
@@ -98,19 +194,21 @@ pub fn parse_trajectory_csv(text: &str) -> Result<TrajectoryTable, ReportError> 
                 message: format!("expected {COLUMNS} fields"),
             });
         }
-        let triple = |j: usize| [v[j], v[j + 1], v[j + 2]];
+        let block =
+            |c: Range<usize>| -> [f64; DIM] { v[c].try_into().expect("a block has DIM columns") };
         table.t.push(v[0]);
-        table.omega.push(triple(1));
-        table.xi.push(triple(4));
-        table.xi_dot.push(triple(7));
-        table.kappa.push(triple(10));
-        table.omega_d.push(triple(13));
+        table.omega.push(block(columns(OMEGA)));
+        table.xi.push(block(columns(XI)));
+        table.xi_dot.push(block(columns(XIDOT)));
+        table.kappa.push(block(columns(KAPPA)));
+        table.omega_d.push(block(DESIRED_COLUMNS));
     }
     Ok(table)
 }
 
 /// The table as a NumPy `.npy` file (format 1.0): a C-ordered little-endian float64 array of
-/// shape `(rows, 16)` with the columns of [`TRAJECTORY_CSV_HEADER`], for
+/// shape `(rows, 16)` (on so(3); `1 + N_STATE + DIM` columns) with the columns of
+/// [`TRAJECTORY_CSV_HEADER`], for
 /// `numpy.load("trajectory.npy")`.
 ///
 /// # Errors
@@ -118,12 +216,13 @@ pub fn parse_trajectory_csv(text: &str) -> Result<TrajectoryTable, ReportError> 
 pub fn trajectory_npy_bytes(table: &TrajectoryTable) -> Result<Vec<u8>, ReportError> {
     table.validate()?;
     let rows = table.len();
-    let mut header = format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({rows}, 16), }}");
+    let mut header =
+        format!("{{'descr': '<f8', 'fortran_order': False, 'shape': ({rows}, {COLUMNS}), }}");
     // Magic (6) + version (2) + header length (2) + header + '\n', padded to 64 bytes.
     let unpadded = 10 + header.len() + 1;
     header.push_str(&" ".repeat((64 - unpadded % 64) % 64));
     header.push('\n');
-    let mut out = Vec::with_capacity(10 + header.len() + rows * 16 * 8);
+    let mut out = Vec::with_capacity(10 + header.len() + rows * COLUMNS * 8);
     out.extend_from_slice(b"\x93NUMPY\x01\x00");
     let len = u16::try_from(header.len()).expect("the header is short");
     out.extend_from_slice(&len.to_le_bytes());
@@ -154,6 +253,31 @@ pub fn write_trajectory_npy(
     table: &TrajectoryTable,
 ) -> Result<(), ReportError> {
     write_atomic(path, &trajectory_npy_bytes(table)?)
+}
+
+#[cfg(test)]
+mod header_tests {
+    use super::*;
+
+    #[test]
+    fn header_is_t_the_generated_state_names_and_omega_d() {
+        let names: Vec<&str> = TRAJECTORY_CSV_HEADER.split(',').collect();
+        assert_eq!(names.len(), COLUMNS);
+        assert_eq!(names[0], "t");
+        assert_eq!(names[1..=N_STATE], STATE_NAMES);
+        for (k, name) in names[DESIRED_COLUMNS].iter().enumerate() {
+            assert_eq!(*name, format!("{DESIRED_COLUMN_PREFIX}{}", k + 1));
+        }
+        // The file format is unchanged (so(3)).
+        assert_eq!(
+            TRAJECTORY_CSV_HEADER,
+            "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3,kappa1,kappa2,kappa3,\
+             omegad1,omegad2,omegad3"
+        );
+        assert_eq!(decimal_len(9), 1);
+        assert_eq!(decimal_len(10), 2);
+        assert_eq!(decimal_len(123), 3);
+    }
 }
 
 #[cfg(test)]

@@ -50,7 +50,7 @@ pub use atomic::{is_temporary_name, probe_writable, remove_in_flight, write_atom
 pub use certificate::CertificateReport;
 pub use csv::{
     parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, write_trajectory_csv,
-    write_trajectory_npy, TRAJECTORY_CSV_HEADER,
+    write_trajectory_npy, DESIRED_COLUMN_PREFIX, TRAJECTORY_CSV_HEADER,
 };
 pub use error::ReportError;
 pub use figures::{

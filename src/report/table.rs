@@ -1,6 +1,7 @@
 //! The plain data the output layer consumes, and quantities derived from it.
 
 use super::ReportError;
+use crate::model::generated::DIM;
 
 /// One solved case, sampled on a grid (for example 2001 points) for output.
 ///
@@ -10,16 +11,16 @@ use super::ReportError;
 pub struct TrajectoryTable {
     /// Time, increasing.
     pub t: Vec<f64>,
-    /// Body angular velocity `Ω(t)`.
-    pub omega: Vec<[f64; 3]>,
-    /// Control direction `ξ(t)`.
-    pub xi: Vec<[f64; 3]>,
-    /// Control `ξ̇(t)`.
-    pub xi_dot: Vec<[f64; 3]>,
-    /// Costates `κ(t)`.
-    pub kappa: Vec<[f64; 3]>,
+    /// Body angular velocity `Ω(t)` (the state block `OMEGA`).
+    pub omega: Vec<[f64; DIM]>,
+    /// Control direction `ξ(t)` (`XI`).
+    pub xi: Vec<[f64; DIM]>,
+    /// Control `ξ̇(t)` (`XIDOT`).
+    pub xi_dot: Vec<[f64; DIM]>,
+    /// Costates `κ(t)` (`KAPPA`).
+    pub kappa: Vec<[f64; DIM]>,
     /// Desired body angular velocity `Ω_d(t)`.
-    pub omega_d: Vec<[f64; 3]>,
+    pub omega_d: Vec<[f64; DIM]>,
 }
 
 /// Summary statistics of a [`TrajectoryTable`] (see [`TrajectoryTable::stats`]).
@@ -264,10 +265,10 @@ mod tests {
     fn projection_lands_on_the_ellipsoid() {
         let e = EnergyEllipsoid::through([1.0, 2.0, 3.0], [5.0, 0.0, 0.0]).unwrap();
         assert_eq!(e.level, 25.0);
-        let p = e.project([10.0, -3.0, 7.0]).unwrap();
-        assert!((e.energy_form(p) - 25.0).abs() < 1e-12);
+        let proj = e.project([10.0, -3.0, 7.0]).unwrap();
+        assert!((e.energy_form(proj) - 25.0).abs() < 1e-12);
         // Same ray: positive multiple of v.
-        assert!((p[1] / p[0] + 0.3).abs() < 1e-15);
+        assert!((proj[1] / proj[0] + 0.3).abs() < 1e-15);
         assert_eq!(e.project([0.0; 3]), None);
         let xs = small().xi_par(&e);
         assert!((e.energy_form(xs[0].unwrap()) - 25.0).abs() < 1e-12);

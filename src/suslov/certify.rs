@@ -56,15 +56,25 @@
 use super::desired::DesiredPath;
 use super::problem::{SuslovProblem, TerminalTime};
 use super::solve::SuslovSolution;
-use crate::model::generated as g;
+use crate::model::generated::{self as g, DIM, N_PARAM, N_STATE, OMEGA, XI, XIDOT};
 use crate::ocp::{
     self, Boundary, Certificate, CertifyError, Horizon, NewtonOptions, OcpProblem,
     SecondOrderOptions, Transcription, Verdict,
 };
 
-/// Suslov's optimal control problem in classical state/control form (`n = 6`, `m = 3`).
+/// States of the direct form, `x = [Ω, ξ]`.
+pub const NX: usize = 2 * DIM;
+/// Controls of the direct form, `u = ξ̇`.
+pub const NU: usize = DIM;
+/// Entries of `z = [x, u] = [Ω, ξ, ξ̇]` (the generated `direct_*` functions' `z`).
+pub const NZ: usize = NX + NU;
+/// Rows (and columns) of the Hessian with respect to `(z, t)`, the time last.
+const NH: usize = NZ + 1;
+
+/// Suslov's optimal control problem in classical state/control form (`n = NX = 2 DIM`,
+/// `m = NU = DIM`).
 pub struct SuslovOcp<'a> {
-    params: [f64; 8],
+    params: [f64; N_PARAM],
     desired: &'a dyn DesiredPath,
 }
 
@@ -78,26 +88,26 @@ impl<'a> SuslovOcp<'a> {
     }
 }
 
-fn z9(z: &[f64]) -> &[f64; 9] {
+fn as_z(z: &[f64]) -> &[f64; NZ] {
     z.try_into()
-        .expect("the transcription passes nz = 9 entries")
+        .expect("the transcription passes nz = NX + NU entries")
 }
 
 impl OcpProblem for SuslovOcp<'_> {
     fn n_state(&self) -> usize {
-        6
+        NX
     }
 
     fn n_control(&self) -> usize {
-        3
+        NU
     }
 
     fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
-        let mut ff = [0.0; 6];
-        let mut jac = [[0.0; 9]; 6];
-        g::direct_dynamics(z9(z), &self.params, &mut ff, &mut jac);
+        let mut ff = [0.0; NX];
+        let mut jac = [[0.0; NZ]; NX];
+        g::direct_dynamics(as_z(z), &self.params, &mut ff, &mut jac);
         f.copy_from_slice(&ff);
-        for (row, out) in jac.iter().zip(f_z.chunks_exact_mut(9)) {
+        for (row, out) in jac.iter().zip(f_z.chunks_exact_mut(NZ)) {
             out.copy_from_slice(row);
         }
         f_t.fill(0.0); // Suslov's equations are autonomous.
@@ -105,25 +115,25 @@ impl OcpProblem for SuslovOcp<'_> {
 
     fn running_cost(&self, t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
         let jet = self.desired.jet(t);
-        let od: [f64; 3] = jet.value.into();
-        let mut lz = [0.0; 9];
-        let mut ld = [0.0; 3];
-        let l = g::direct_cost(z9(z), &self.params, &od, &mut lz, &mut ld);
+        let od: [f64; DIM] = jet.value.into();
+        let mut lz = [0.0; NZ];
+        let mut ld = [0.0; DIM];
+        let l = g::direct_cost(as_z(z), &self.params, &od, &mut lz, &mut ld);
         l_z.copy_from_slice(&lz);
         // L depends on t only through Ω_d(t).
-        let l_t = (0..3).map(|k| ld[k] * jet.d1[k]).sum();
+        let l_t = ld.iter().zip(jet.d1.iter()).map(|(l, d)| l * d).sum();
         (l, l_t)
     }
 
     fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]) {
         let jet = self.desired.jet(t);
-        let od: [f64; 3] = jet.value.into();
-        let lam: &[f64; 6] = lambda.try_into().expect("n = 6 multipliers");
-        let mut h_zz = [[0.0; 9]; 9];
-        let mut h_zd = [[0.0; 3]; 9];
-        let mut h_dd = [[0.0; 3]; 3];
+        let od: [f64; DIM] = jet.value.into();
+        let lam: &[f64; NX] = lambda.try_into().expect("n = NX multipliers");
+        let mut h_zz = [[0.0; NZ]; NZ];
+        let mut h_zd = [[0.0; DIM]; NZ];
+        let mut h_dd = [[0.0; DIM]; DIM];
         g::direct_hessian(
-            z9(z),
+            as_z(z),
             &self.params,
             &od,
             w,
@@ -132,25 +142,28 @@ impl OcpProblem for SuslovOcp<'_> {
             &mut h_zd,
             &mut h_dd,
         );
-        let mut lz = [0.0; 9];
-        let mut ld = [0.0; 3];
-        g::direct_cost(z9(z), &self.params, &od, &mut lz, &mut ld);
+        let mut lz = [0.0; NZ];
+        let mut ld = [0.0; DIM];
+        g::direct_cost(as_z(z), &self.params, &od, &mut lz, &mut ld);
         // Chain rule through Ω_d(t): ℓ_zt = ℓ_zd Ω̇_d, ℓ_tt = Ω̇_dᵀ ℓ_dd Ω̇_d + w L_d Ω̈_d.
+        // `h` is NH x NH, row-major, (z, t): rows 0..NZ are [ℓ_zz, ℓ_zt], the last [ℓ_tz, ℓ_tt].
         let d1 = jet.d1;
-        for r in 0..9 {
-            h[r * 10..r * 10 + 9].copy_from_slice(&h_zz[r]);
-            let zt: f64 = (0..3).map(|k| h_zd[r][k] * d1[k]).sum();
-            h[r * 10 + 9] = zt;
-            h[90 + r] = zt;
+        let (rows, last) = h.split_at_mut(NZ * NH);
+        for (r, row) in rows.chunks_exact_mut(NH).enumerate() {
+            let (zz, zt) = row.split_at_mut(NZ);
+            zz.copy_from_slice(&h_zz[r]);
+            let v: f64 = h_zd[r].iter().zip(d1.iter()).map(|(a, b)| a * b).sum();
+            zt[0] = v;
+            last[r] = v;
         }
         let mut tt = 0.0;
-        for a in 0..3 {
+        for a in 0..DIM {
             tt += w * ld[a] * jet.d2[a];
-            for b in 0..3 {
+            for b in 0..DIM {
                 tt += d1[a] * h_dd[a][b] * d1[b];
             }
         }
-        h[99] = tt;
+        last[NZ] = tt;
     }
 }
 
@@ -208,8 +221,9 @@ pub fn transcription<'a>(
 ) -> Result<Transcription<'a, SuslovOcp<'a>>, ocp::TranscriptionError> {
     let p = &sol.problem;
     let boundary = Boundary {
-        start: (0..3).map(|i| (i, p.omega_a[i])).collect(),
-        end: (0..3).map(|i| (i, p.omega_b[i])).collect(),
+        // Ω is the first block of x = [Ω, ξ].
+        start: (0..DIM).map(|i| (i, p.omega_a[i])).collect(),
+        end: (0..DIM).map(|i| (i, p.omega_b[i])).collect(),
     };
     let horizon = match p.terminal {
         TerminalTime::Fixed(b) => Horizon::Fixed {
@@ -239,8 +253,11 @@ pub fn certify(
     // transcription uses the solver's mesh and Lobatto nodes).
     let values = sol.bvp.collocation_values();
     let mut v0 = Vec::with_capacity(tr.n_var());
-    for y in values.chunks_exact(12) {
-        v0.extend_from_slice(&y[..9]);
+    for y in values.chunks_exact(N_STATE) {
+        // z = [Ω, ξ, ξ̇] from y = [Ω, ξ, ξ̇, κ].
+        for block in [OMEGA, XI, XIDOT] {
+            v0.extend_from_slice(&y[block]);
+        }
     }
     if tr.length_index().is_some() {
         v0.push(sol.t_span);
@@ -256,10 +273,10 @@ pub fn certify(
     for p in 0..tr.n_points() {
         let t = tr.point_time(p, sol.t_span);
         let y = sol.state(t);
-        let mut pi = [0.0; 6];
+        let mut pi = [0.0; NX];
         g::classical_costates(&y, &sol.problem.params(), &bvp.desired_at(t), &mut pi);
-        for r in 0..6 {
-            worst = worst.max((lam[p * 6 + r] / omega[p] - pi[r]).abs());
+        for r in 0..NX {
+            worst = worst.max((lam[p * NX + r] / omega[p] - pi[r]).abs());
             scale = scale.max(pi[r].abs());
         }
     }

@@ -47,11 +47,29 @@
 //! trajectory, the constraint drift `⟨Ω,ξ⟩ ≈ ε` yields a 5th singular value `∝ ε`; it is
 //! counted only if it exceeds `rtol · σ₁` (see [`RankReport::relative_constraint`]).
 
-use nalgebra::{Matrix6, Vector3, Vector6};
+use nalgebra::{SMatrix, SVector, Vector3};
 
 use super::ellipsoid::Inertia;
+use super::layout::stack;
+use super::problem::{model_params, CostWeights};
 use super::SuslovError;
-use crate::model::generated;
+use crate::model::generated::{self, DIM, N_BRACKETS, N_PARAM};
+
+/// Entries of the state `x = [Ω, ξ]`.
+pub const NX: usize = 2 * DIM;
+
+/// Columns of `V`: the control fields `gᵢ` (one per entry of `u = ξ̇`), then their brackets.
+pub const NV: usize = DIM + N_BRACKETS;
+
+/// `dim M = NX − 2` (`M` is cut out by the energy level and `⟨Ω, ξ⟩ = 0`): the rank of `V`
+/// on `M` that the theorem asserts.
+pub const DIM_M: usize = NX - 2;
+
+/// A vector field on the state space `x = [Ω, ξ]`, at one state.
+pub type Field = SVector<f64, NX>;
+
+/// The accessibility matrix `V` (columns: the control fields, then their brackets).
+pub type AccessibilityMatrix = SMatrix<f64, NX, NV>;
 
 /// A state `x = [Ω, ξ]`, as the pair `(Ω, ξ)`.
 pub type State = (Vector3<f64>, Vector3<f64>);
@@ -63,25 +81,18 @@ pub const RANK_RTOL: f64 = 1e-9;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ControlFields {
     /// The drift `f(x)`.
-    pub drift: Vector6<f64>,
+    pub drift: Field,
     /// The control fields `g₁, g₂, g₃`.
-    pub g: [Vector6<f64>; 3],
+    pub g: [Field; DIM],
     /// `[g₁, g₂]`, `[g₁, g₃]`, `[g₂, g₃]`.
-    pub brackets: [Vector6<f64>; 3],
+    pub brackets: [Field; N_BRACKETS],
 }
 
 impl ControlFields {
     /// The paper's `V = [g₁, g₂, g₃, [g₁,g₂], [g₁,g₃], [g₂,g₃]]` (eq. `Veqn`), as columns.
-    pub fn accessibility_matrix(&self) -> Matrix6<f64> {
-        let cols = [
-            self.g[0],
-            self.g[1],
-            self.g[2],
-            self.brackets[0],
-            self.brackets[1],
-            self.brackets[2],
-        ];
-        Matrix6::from_columns(&cols)
+    pub fn accessibility_matrix(&self) -> AccessibilityMatrix {
+        let cols: Vec<Field> = self.g.iter().chain(&self.brackets).copied().collect();
+        AccessibilityMatrix::from_columns(&cols)
     }
 }
 
@@ -89,12 +100,12 @@ impl ControlFields {
 /// The fields are homogeneous of degree 0 in `I` (Suslov's equations do not change when `I`
 /// is multiplied by a constant), so `I` is passed scaled to `max Iₖ = 1`: their products
 /// (up to `I⁴`) would overflow for moments ~1e80 and up.
-fn params(inertia: &Inertia) -> [f64; 8] {
+fn params(inertia: &Inertia) -> [f64; N_PARAM] {
     let d = inertia.diag();
     // A power of two, so that the scaling is exact: the fields are bit-for-bit those of the
     // unscaled moments wherever those are finite.
     let m = 2f64.powi(d.max().log2().floor() as i32);
-    [d[0] / m, d[1] / m, d[2] / m, 0.0, 0.0, 0.0, 0.0, 0.0]
+    model_params((d / m).into(), &CostWeights::ZERO)
 }
 
 /// A number for a message: plain when moderate, else in exponent notation (`{}` of 1e300
@@ -112,8 +123,8 @@ fn fmt3(v: &Vector3<f64>) -> String {
     format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
 }
 
-fn state(omega: &Vector3<f64>, xi: &Vector3<f64>) -> Result<[f64; 6], SuslovError> {
-    let x = [omega[0], omega[1], omega[2], xi[0], xi[1], xi[2]];
+fn state(omega: &Vector3<f64>, xi: &Vector3<f64>) -> Result<[f64; NX], SuslovError> {
+    let x: [f64; NX] = stack(&[omega.as_slice(), xi.as_slice()]);
     if x.iter().any(|v| !v.is_finite()) {
         return Err(SuslovError::InvalidInput {
             what: format!(
@@ -145,8 +156,9 @@ pub fn control_fields(
 ) -> Result<ControlFields, SuslovError> {
     let x = state(omega, xi)?;
     let p = params(inertia);
-    let mut fg = [[0.0; 6]; 4];
-    let mut br = [[0.0; 6]; 3];
+    // Rows: the drift f, then g_1 .. g_DIM.
+    let mut fg = [[0.0; NX]; 1 + DIM];
+    let mut br = [[0.0; NX]; N_BRACKETS];
     generated::control_fields(&x, &p, &mut fg);
     generated::lie_brackets(&x, &p, &mut br);
     // Not finite in f64 (|Ω| ~1e150, moments 1e300 apart): an error, never NaN in the SVD,
@@ -166,11 +178,12 @@ pub fn control_fields(
             ),
         });
     }
-    let v = |a: &[f64; 6]| Vector6::from_column_slice(a);
+    let v = |a: &[f64; NX]| Field::from_column_slice(a);
+    let (drift, g) = fg.split_first().expect("the drift row");
     Ok(ControlFields {
-        drift: v(&fg[0]),
-        g: [v(&fg[1]), v(&fg[2]), v(&fg[3])],
-        brackets: [v(&br[0]), v(&br[1]), v(&br[2])],
+        drift: v(drift),
+        g: std::array::from_fn(|i| v(&g[i])),
+        brackets: br.each_ref().map(v),
     })
 }
 
@@ -180,7 +193,7 @@ pub struct RankReport {
     /// Numerical rank of `V`: `#{k : σₖ > threshold}`.
     pub rank: usize,
     /// Singular values of `V`, descending.
-    pub singular_values: [f64; 6],
+    pub singular_values: [f64; NX],
     /// The absolute threshold `rtol · σ₁` used.
     pub threshold: f64,
     /// `σ_rank`, the smallest singular value counted (0 if the rank is 0).
@@ -233,15 +246,19 @@ fn unscale(v: &Vector3<f64>, e: i32) -> Vector3<f64> {
 }
 
 /// Singular values of `V`, sorted descending.
-pub fn singular_values(v: &Matrix6<f64>) -> [f64; 6] {
-    let mut s: [f64; 6] = v.singular_values().as_slice().try_into().expect("6 values");
+pub fn singular_values(v: &AccessibilityMatrix) -> [f64; NX] {
+    let mut s: [f64; NX] = v
+        .singular_values()
+        .as_slice()
+        .try_into()
+        .expect("NX singular values");
     s.sort_by(|a, b| b.total_cmp(a));
     s
 }
 
 /// Numerical rank of descending singular values with the relative threshold `rtol`
 /// (`σₖ > rtol · σ₁`); returns `(rank, threshold)`.
-pub fn numerical_rank(sv: &[f64; 6], rtol: f64) -> (usize, f64) {
+pub fn numerical_rank(sv: &[f64; NX], rtol: f64) -> (usize, f64) {
     let threshold = rtol * sv[0];
     (sv.iter().filter(|s| **s > threshold).count(), threshold)
 }
@@ -266,7 +283,7 @@ pub fn rank_report(
         singular_values: sv,
         threshold,
         smallest_significant: if rank == 0 { 0.0 } else { sv[rank - 1] },
-        gap: if rank == 0 || rank == 6 {
+        gap: if rank == 0 || rank == sv.len() {
             0.0
         } else {
             sv[rank] / sv[rank - 1]
@@ -598,7 +615,7 @@ pub fn report_table(
         (Some(a), Some(b)) => format!("{a}..{b}"),
         _ => "-".into(),
     };
-    let failing = on_m.iter().filter(|r| r.0 != 4).count();
+    let failing = on_m.iter().filter(|r| r.0 != DIM_M).count();
     let verdict = if on_m.is_empty() {
         AccessibilityVerdict::NoStateOnM
     } else if failing == 0 {
@@ -631,7 +648,7 @@ pub fn report_table(
         AccessibilityVerdict::RankDeficient { on_m, failing } => {
             let _ = writeln!(
                 s,
-                "rank V != 4 at {failing} of the {on_m} states of M: NOT consistent with the \
+                "rank V != {DIM_M} at {failing} of the {on_m} states of M: NOT consistent with the \
                  theorem at this threshold (check --rtol and the scale of xi, |xi| ~ 1)."
             );
         }
@@ -650,7 +667,7 @@ pub fn report_table(
             };
             let _ = writeln!(
                 s,
-                "rank V = 4 = dim M at all {on_m} states of M tested; {drift}."
+                "rank V = {DIM_M} = dim M at all {on_m} states of M tested; {drift}."
             );
         }
     }
@@ -668,6 +685,7 @@ mod tests {
     use super::*;
     use crate::suslov::desired::{DesiredPath, PaperSpiral};
     use crate::suslov::singular::singular_control_at;
+    use nalgebra::{Matrix6, Vector6};
 
     fn rng(seed: u64) -> impl FnMut() -> f64 {
         let mut s = seed;

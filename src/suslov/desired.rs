@@ -269,14 +269,14 @@ impl PaperSpiral {
 
 impl PathEval for PaperSpiral {
     fn eval<D: Scalar>(&self, t: D) -> [D; 3] {
-        let p = self.phi_par.eval(t);
+        let phi = self.phi_par.eval(t);
         let s = self.switch(t);
         let one_minus_s = D::one() - s;
         let b = lift::<D>(&self.omega_b);
         [
-            p[0] * one_minus_s + b[0] * s,
-            p[1] * one_minus_s + b[1] * s,
-            p[2] * one_minus_s + b[2] * s,
+            phi[0] * one_minus_s + b[0] * s,
+            phi[1] * one_minus_s + b[1] * s,
+            phi[2] * one_minus_s + b[2] * s,
         ]
     }
 }

@@ -16,7 +16,7 @@ use nalgebra::Vector3;
 
 use crate::bvp::BvpProblem;
 use crate::ivp::IvpOptions;
-use crate::model::generated as g;
+use crate::model::generated::{self as g, DIM, N_STATE, OMEGA, XI, XIDOT};
 
 use super::problem::SuslovBvp;
 use super::reintegrate::{
@@ -118,7 +118,7 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
         ..bvp
     };
     let inertia = problem.inertia.diag();
-    let kinetic = |om: &[f64]| 0.5 * (0..3).map(|i| inertia[i] * om[i] * om[i]).sum::<f64>();
+    let kinetic = |om: &[f64]| 0.5 * (0..DIM).map(|i| inertia[i] * om[i] * om[i]).sum::<f64>();
     let t_a = kinetic(problem.omega_a.as_slice());
     let x = &sol.bvp.x;
 
@@ -127,7 +127,7 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
         let h = w[1] - w[0];
         for (node, weight) in GAUSS5 {
             let s = w[0] + node * h;
-            let y: [f64; 12] = sol.bvp.eval(s).try_into().expect("n = 12");
+            let y: [f64; N_STATE] = sol.bvp.eval(s).try_into().expect("n = N_STATE");
             let wd = bvp.desired_at(problem.t0 + s * t_span);
             cost += weight * h * t_span * g::cost_integrand(&y, &params, &wd);
         }
@@ -150,22 +150,23 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
         bc_residual: 0.0,
         grid_points: grid.len(),
     };
-    let mut y = [0.0; 12];
-    let mut yp = [0.0; 12];
-    let mut f = [0.0; 12];
+    let mut y = [0.0; N_STATE];
+    let mut yp = [0.0; N_STATE];
+    let mut f = [0.0; N_STATE];
     let mut sample = |d: &mut Diagnostics, s: f64, h: f64| {
         sol.bvp.eval_into(s, &mut y);
         sol.bvp.eval_derivative_into(s, &mut yp);
         bvp.f(s, &y, &[], &mut f);
-        let c = (0..3).map(|i| y[i] * y[3 + i]).sum::<f64>();
+        let (om, xi) = (&y[OMEGA], &y[XI]);
+        let c = om.iter().zip(xi).map(|(o, x)| o * x).sum::<f64>();
         d.max_abs_constraint = d.max_abs_constraint.max(c.abs());
-        let xn = (y[3] * y[3] + y[4] * y[4] + y[5] * y[5]).sqrt();
+        let xn = xi.iter().map(|x| x * x).sum::<f64>().sqrt();
         d.xi_norm_min = d.xi_norm_min.min(xn);
         d.xi_norm_max = d.xi_norm_max.max(xn);
-        let on = (y[0] * y[0] + y[1] * y[1] + y[2] * y[2]).sqrt();
+        let on = om.iter().map(|o| o * o).sum::<f64>().sqrt();
         d.omega_norm_max = d.omega_norm_max.max(on);
-        d.energy_drift = d.energy_drift.max((kinetic(&y[..3]) - t_a).abs());
-        for i in 0..12 {
+        d.energy_drift = d.energy_drift.max((kinetic(om) - t_a).abs());
+        for i in 0..N_STATE {
             let r = (yp[i] - f[i]).abs();
             d.max_residual = d.max_residual.max(r);
             d.max_relative_residual = d.max_relative_residual.max(r / (1.0 + f[i].abs()));
@@ -184,9 +185,10 @@ pub fn diagnose(sol: &SuslovSolution) -> Diagnostics {
     let h_last = x[x.len() - 1] - x[x.len() - 2];
     sample(&mut d, x[x.len() - 1], h_last);
     let yb = sol.bvp.eval(1.0);
-    d.omega_b_error = (Vector3::new(yb[0], yb[1], yb[2]) - problem.omega_b).norm();
+    d.omega_b_error = (Vector3::from_column_slice(&yb[OMEGA]) - problem.omega_b).norm();
     let full = SuslovBvp::new(problem);
-    let mut res = vec![0.0; 12 + full.k()];
+    // n + k conditions (n = N_STATE).
+    let mut res = vec![0.0; full.n() + full.k()];
     full.bc(&sol.bvp.eval(0.0), &yb, &p_vec[..full.k()], &mut res);
     d.bc_residual = res.iter().fold(0.0, |m, v| m.max(v.abs()));
     d
@@ -200,8 +202,8 @@ fn control_of(
     move |t: f64| {
         let y = sol.state(t.clamp(a, b));
         Ok((
-            Vector3::new(y[3], y[4], y[5]),
-            Vector3::new(y[6], y[7], y[8]),
+            Vector3::from_column_slice(&y[XI]),
+            Vector3::from_column_slice(&y[XIDOT]),
         ))
     }
 }
@@ -227,10 +229,7 @@ pub fn reintegrate_difference(sol: &SuslovSolution) -> Result<Reintegration, Sus
     )?;
     let reference: Vec<Vector3<f64>> = times
         .iter()
-        .map(|&t| {
-            let y = sol.state(t);
-            Vector3::new(y[0], y[1], y[2])
-        })
+        .map(|&t| Vector3::from_column_slice(&sol.state(t)[OMEGA]))
         .collect();
     let cmp = compare(&run, &reference, &problem.ellipsoid())?;
     Ok(Reintegration {

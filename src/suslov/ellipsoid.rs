@@ -179,7 +179,7 @@ impl EnergyEllipsoid {
             return Ok(());
         }
         let projection = match self.project(v) {
-            Ok(p) => format!("[{:.16e}, {:.16e}, {:.16e}]", p[0], p[1], p[2]),
+            Ok(proj) => format!("[{:.16e}, {:.16e}, {:.16e}]", proj[0], proj[1], proj[2]),
             Err(e) => format!("undefined ({e})"),
         };
         Err(SuslovError::OffEllipsoid {

@@ -28,7 +28,7 @@
 //!   `t = 0`, where `Ω_a` is a principal axis (`(IΩ_a) × Ω_a = 0`) and `IΩ̇(0) = [0, 1, 0]`.
 //! - **Recommended start `Ω_p = Projected(Ω_d)` on `[0, b_p = b_d = 10]`**: it is the admissible
 //!   path nearest to `Ω_d` (1.7e-5), satisfies P1–P3 to round-off, and its singular control
-//!   re-integrates to `Ω_p` within 1.5e-12 (see [`mod@reintegrate`]). Its cost is the sigmoid's
+//!   re-integrates to `Ω_p` within 2.1e-12 (see [`mod@reintegrate`]). Its cost is the sigmoid's
 //!   time scale `w = 0.01` in the last ~0.2 of the interval (`|ξ̇_p|` up to 22.2 at `t = 10`,
 //!   `Ω̈_p ~ 1/w`), which the BVP mesh must resolve anyway because the tracking term
 //!   `γ/2 |Ω − Ω_d|²` contains `Ω_d`. The smooth alternative is `φ_∥` on `[0, 10]` (exactly
@@ -42,6 +42,7 @@ pub mod desired;
 pub mod diagnostics;
 pub mod ellipsoid;
 pub mod equations;
+pub mod layout;
 pub mod paper;
 pub mod problem;
 pub mod properties;

@@ -5,21 +5,25 @@
 //! The BVP (paper eqs. `p_sys_explicit`, `p_lbc`, `p_rbc`), on `s ∈ [0, 1]`, `t = a + sT`:
 //!
 //! ```text
-//! dy/ds = T f(y, Ω_d(a + sT)),       y = [Ω, ξ, ξ̇, κ] ∈ R¹²
-//! Ω(0) = Ω_a,  p_ξ(0) = ⟨κ,ξ⟩Ω + βξ̇ = 0        (6 conditions at a)
-//! Ω(1) = Ω_b,  p_ξ(1) = 0                        (6 conditions at b)
+//! dy/ds = T f(y, Ω_d(a + sT)),       y = [Ω, ξ, ξ̇, κ] ∈ R^N_STATE (R¹² on so(3))
+//! Ω(0) = Ω_a,  p_ξ(0) = ⟨κ,ξ⟩Ω + βξ̇ = 0        (N_BC_ENDPOINT = 6 conditions at a)
+//! Ω(1) = Ω_b,  p_ξ(1) = 0                        (N_BC_ENDPOINT = 6 conditions at b)
 //! C − ⟨p_Ω, Ω̇⟩ = 0 at b                          (free terminal time only; T unknown)
 //! ```
+//!
+//! Every size, block and index is the generated model's (`N_STATE`, `OMEGA`, …, `idx::*`).
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
 use crate::bvp::BvpProblem;
-use crate::model::generated as g;
+use crate::model::generated::{self as g, idx, DIM, N_BC_ENDPOINT, N_DESIRED, N_PARAM, N_STATE};
 
 use super::desired::DesiredPath;
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
+use super::layout::as_state;
 
 /// The weights of the cost integrand
 /// `C = α/4 (|ξ|² − 1)² + β/2 |ξ̇|² + γ/2 |Ω − Ω_d|² + η/2 |Ω̇|² + δ` (paper eq. `cost_function`).
@@ -38,6 +42,29 @@ pub struct CostWeights {
 }
 
 impl CostWeights {
+    /// Every weight 0: for the functions of Suslov's pure equations, in which only the
+    /// inertia enters (see [`inertia_params`]).
+    pub const ZERO: Self = Self {
+        alpha: 0.0,
+        beta: 0.0,
+        gamma: 0.0,
+        eta: 0.0,
+        delta: 0.0,
+    };
+
+    /// The weights held in a constant vector `p` of the generated model (the inverse of
+    /// [`model_params`], by the generated `idx::*`).
+    pub fn from_params(p: &[f64; N_PARAM]) -> Self {
+        let [alpha, beta, gamma, eta, delta] = COST_WEIGHT_INDICES.map(|i| p[i]);
+        Self {
+            alpha,
+            beta,
+            gamma,
+            eta,
+            delta,
+        }
+    }
+
     /// The paper's weights (section 5.3) for a given `η`.
     pub fn paper(eta: f64) -> Self {
         Self {
@@ -48,6 +75,66 @@ impl CostWeights {
             delta: 0.2,
         }
     }
+}
+
+/// Number of principal moments of inertia in `p` (the generated `INERTIA_PARAMS`).
+pub const N_INERTIA: usize = g::INERTIA_PARAMS.len();
+
+/// The constants [`CostWeights`] holds, field by field (`alpha`, `beta`, `gamma`, `eta`,
+/// `delta`): the generated model's weights, in its order.
+const COST_WEIGHT_INDICES: [usize; 5] = [idx::ALPHA, idx::BETA, idx::GAMMA, idx::ETA, idx::DELTA];
+
+/// Whether [`model_params`] fills every constant of `p`: the inertia, the model's weights
+/// (exactly those of [`CostWeights`]), no constraint parameters and no derived constants (a
+/// diagonal inertia has no `I⁻¹` slots).
+const fn covers_every_param() -> bool {
+    if !(g::CONSTRAINT_PARAMS.is_empty()
+        && g::INERTIA_INVERSE_SLOTS.is_empty()
+        && g::N_USER_PARAM == N_PARAM
+        && N_INERTIA + COST_WEIGHT_INDICES.len() == N_PARAM
+        && g::WEIGHTS.len() == COST_WEIGHT_INDICES.len())
+    {
+        return false;
+    }
+    let mut k = 0;
+    while k < COST_WEIGHT_INDICES.len() {
+        if g::WEIGHTS[k].index != COST_WEIGHT_INDICES[k] {
+            return false;
+        }
+        k += 1;
+    }
+    true
+}
+const _: () = assert!(covers_every_param());
+
+/// The generated model's constant vector `p` (layout `PARAM_NAMES`) for the principal
+/// moments `moments` (in the order of `INERTIA_PARAMS`) and `weights`: the one place where
+/// `p` is assembled, by the generated indices.
+pub fn model_params(moments: [f64; N_INERTIA], weights: &CostWeights) -> [f64; N_PARAM] {
+    let mut p = [0.0; N_PARAM];
+    for (meta, m) in g::INERTIA_PARAMS.iter().zip(moments) {
+        p[meta.index] = m;
+    }
+    let CostWeights {
+        alpha,
+        beta,
+        gamma,
+        eta,
+        delta,
+    } = *weights;
+    for (i, w) in COST_WEIGHT_INDICES
+        .into_iter()
+        .zip([alpha, beta, gamma, eta, delta])
+    {
+        p[i] = w;
+    }
+    p
+}
+
+/// `p` for the functions of Suslov's pure equations, which depend on the inertia only
+/// (every weight 0).
+pub fn inertia_params(inertia: &Inertia) -> [f64; N_PARAM] {
+    model_params(inertia.diag().into(), &CostWeights::ZERO)
 }
 
 /// Fixed or free terminal time.
@@ -172,11 +259,9 @@ pub enum ProblemError {
 }
 
 impl SuslovProblem {
-    /// The generated model's constant vector `p = [I1, I2, I3, α, β, γ, η, δ]`.
-    pub fn params(&self) -> [f64; 8] {
-        let d = self.inertia.diag();
-        let w = &self.weights;
-        [d[0], d[1], d[2], w.alpha, w.beta, w.gamma, w.eta, w.delta]
+    /// The generated model's constant vector `p` (layout `PARAM_NAMES`; [`model_params`]).
+    pub fn params(&self) -> [f64; N_PARAM] {
+        model_params(self.inertia.diag().into(), &self.weights)
     }
 
     /// The energy ellipsoid through `Ω_a`.
@@ -261,15 +346,29 @@ impl SuslovProblem {
     }
 }
 
+/// Index of `T = b − a` among the BVP's unknown parameters (free terminal time only).
+pub const SPAN: usize = 0;
+
+/// Rows of the boundary conditions at `a` (the generated `bc_endpoint` at `Ω_a`).
+const BC_LEFT: Range<usize> = 0..N_BC_ENDPOINT;
+/// Rows of the boundary conditions at `b` (the generated `bc_endpoint` at `Ω_b`).
+const BC_RIGHT: Range<usize> = N_BC_ENDPOINT..2 * N_BC_ENDPOINT;
+/// Row of the free-time condition (after both ends' conditions).
+const BC_FREE_TIME: usize = 2 * N_BC_ENDPOINT;
+
+// The BVP is square: `N_STATE` conditions at the two ends, one more for the unknown `T`; `w`
+// is `[Ω_d, Ω̇_d]`.
+const _: () = assert!(BC_FREE_TIME == N_STATE && N_DESIRED == 2 * DIM);
+
 /// The Suslov BVP on normalized time `s ∈ [0, 1]`, for given constants (which continuation
 /// changes) and a fixed or unknown `T = b − a` (the BVP's one parameter when free).
 pub struct SuslovBvp<'a> {
-    /// `[I1, I2, I3, α, β, γ, η, δ]`.
-    pub params: [f64; 8],
+    /// The generated model's constants `p` (layout `PARAM_NAMES`).
+    pub params: [f64; N_PARAM],
     /// `Ω(a)`.
-    pub omega_a: [f64; 3],
+    pub omega_a: [f64; DIM],
     /// `Ω(b)`.
-    pub omega_b: [f64; 3],
+    pub omega_b: [f64; DIM],
     /// `a`.
     pub t0: f64,
     /// `Some(T)` for a fixed terminal time, `None` when `T` is the unknown parameter.
@@ -296,30 +395,23 @@ impl<'a> SuslovBvp<'a> {
     }
 
     fn span(&self, p: &[f64]) -> f64 {
-        self.fixed_span.unwrap_or_else(|| p[0])
+        self.fixed_span.unwrap_or_else(|| p[SPAN])
     }
 
     /// `w = [Ω_d(t), Ω̇_d(t)]`.
-    pub fn desired_at(&self, t: f64) -> [f64; 6] {
+    pub fn desired_at(&self, t: f64) -> [f64; N_DESIRED] {
         let jet = self.desired.jet(t);
-        [
-            jet.value[0],
-            jet.value[1],
-            jet.value[2],
-            jet.d1[0],
-            jet.d1[1],
-            jet.d1[2],
-        ]
+        let mut w = [0.0; N_DESIRED];
+        let (value, rate) = w.split_at_mut(DIM);
+        value.copy_from_slice(jet.value.as_slice());
+        rate.copy_from_slice(jet.d1.as_slice());
+        w
     }
-}
-
-fn arr12(y: &[f64]) -> &[f64; 12] {
-    y.try_into().expect("the solver passes n = 12 states")
 }
 
 impl BvpProblem for SuslovBvp<'_> {
     fn n(&self) -> usize {
-        12
+        N_STATE
     }
 
     fn k(&self) -> usize {
@@ -329,17 +421,25 @@ impl BvpProblem for SuslovBvp<'_> {
     fn f(&self, s: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
         let t_span = self.span(p);
         let w = self.desired_at(self.t0 + s * t_span);
-        let out: &mut [f64; 12] = dy.try_into().expect("n = 12");
-        g::ode_rhs_scaled(arr12(y), &self.params, &w, t_span, out);
+        let out: &mut [f64; N_STATE] = dy.try_into().expect("n = N_STATE");
+        g::ode_rhs_scaled(as_state(y), &self.params, &w, t_span, out);
     }
 
     fn jac(&self, s: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
         let t_span = self.span(p);
         let w = self.desired_at(self.t0 + s * t_span);
-        let mut dgdy = [[0.0; 12]; 12];
-        let mut dgdt = [0.0; 12];
-        g::ode_jac_scaled(arr12(y), &self.params, &w, t_span, s, &mut dgdy, &mut dgdt);
-        for (row, out) in dgdy.iter().zip(dfdy.chunks_exact_mut(12)) {
+        let mut dgdy = [[0.0; N_STATE]; N_STATE];
+        let mut dgdt = [0.0; N_STATE];
+        g::ode_jac_scaled(
+            as_state(y),
+            &self.params,
+            &w,
+            t_span,
+            s,
+            &mut dgdy,
+            &mut dgdt,
+        );
+        for (row, out) in dgdy.iter().zip(dfdy.chunks_exact_mut(N_STATE)) {
             out.copy_from_slice(row);
         }
         if self.fixed_span.is_none() {
@@ -349,15 +449,15 @@ impl BvpProblem for SuslovBvp<'_> {
     }
 
     fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
-        let mut left = [0.0; 6];
-        let mut right = [0.0; 6];
-        g::bc_endpoint(arr12(ya), &self.params, &self.omega_a, &mut left);
-        g::bc_endpoint(arr12(yb), &self.params, &self.omega_b, &mut right);
-        res[..6].copy_from_slice(&left);
-        res[6..12].copy_from_slice(&right);
+        let mut left = [0.0; N_BC_ENDPOINT];
+        let mut right = [0.0; N_BC_ENDPOINT];
+        g::bc_endpoint(as_state(ya), &self.params, &self.omega_a, &mut left);
+        g::bc_endpoint(as_state(yb), &self.params, &self.omega_b, &mut right);
+        res[BC_LEFT].copy_from_slice(&left);
+        res[BC_RIGHT].copy_from_slice(&right);
         if self.fixed_span.is_none() {
-            let wb = self.desired_at(self.t0 + p[0]);
-            res[12] = g::free_time_condition(arr12(yb), &self.params, &wb);
+            let wb = self.desired_at(self.t0 + p[SPAN]);
+            res[BC_FREE_TIME] = g::free_time_condition(as_state(yb), &self.params, &wb);
         }
     }
 
@@ -373,21 +473,77 @@ impl BvpProblem for SuslovBvp<'_> {
         dya.fill(0.0);
         dyb.fill(0.0);
         dp.fill(0.0);
-        let mut d = [[0.0; 12]; 6];
-        g::bc_endpoint_jac(arr12(ya), &self.params, &self.omega_a, &mut d);
-        for (i, row) in d.iter().enumerate() {
-            dya[i * 12..(i + 1) * 12].copy_from_slice(row);
+        // Row-major: row i of the conditions is `d[i * N_STATE..(i + 1) * N_STATE]`.
+        let mut d = [[0.0; N_STATE]; N_BC_ENDPOINT];
+        g::bc_endpoint_jac(as_state(ya), &self.params, &self.omega_a, &mut d);
+        for (row, out) in d
+            .iter()
+            .zip(dya.chunks_exact_mut(N_STATE).skip(BC_LEFT.start))
+        {
+            out.copy_from_slice(row);
         }
-        g::bc_endpoint_jac(arr12(yb), &self.params, &self.omega_b, &mut d);
-        for (i, row) in d.iter().enumerate() {
-            dyb[(6 + i) * 12..(7 + i) * 12].copy_from_slice(row);
+        g::bc_endpoint_jac(as_state(yb), &self.params, &self.omega_b, &mut d);
+        for (row, out) in d
+            .iter()
+            .zip(dyb.chunks_exact_mut(N_STATE).skip(BC_RIGHT.start))
+        {
+            out.copy_from_slice(row);
         }
         if self.fixed_span.is_none() {
-            let wb = self.desired_at(self.t0 + p[0]);
-            let mut d_y = [0.0; 12];
-            dp[12] = g::free_time_condition_jac(arr12(yb), &self.params, &wb, &mut d_y);
-            dyb[12 * 12..13 * 12].copy_from_slice(&d_y);
+            let wb = self.desired_at(self.t0 + p[SPAN]);
+            let mut d_y = [0.0; N_STATE];
+            // `dp` is (n + k) x k with k = 1: the entry of row BC_FREE_TIME, column SPAN.
+            dp[BC_FREE_TIME * self.k() + SPAN] =
+                g::free_time_condition_jac(as_state(yb), &self.params, &wb, &mut d_y);
+            dyb[BC_FREE_TIME * N_STATE..(BC_FREE_TIME + 1) * N_STATE].copy_from_slice(&d_y);
         }
         true
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The value of the constant named `name` (a generated `PARAM_NAMES` entry) in `p`.
+    fn by_name(p: &[f64; N_PARAM], name: &str) -> f64 {
+        let i = g::PARAM_NAMES
+            .iter()
+            .position(|n| *n == name)
+            .unwrap_or_else(|| panic!("no constant {name}"));
+        p[i]
+    }
+
+    #[test]
+    fn model_params_puts_every_value_under_its_generated_name() {
+        let w = CostWeights {
+            alpha: 1.5,
+            beta: 0.25,
+            gamma: 3.0,
+            eta: 0.125,
+            delta: 0.75,
+        };
+        let moments = std::array::from_fn(|k| 1.0 + k as f64 / 8.0);
+        let p = model_params(moments, &w);
+        for (meta, m) in g::INERTIA_PARAMS.iter().zip(moments) {
+            assert_eq!(by_name(&p, meta.name), m);
+        }
+        for (name, v) in [
+            ("alpha", w.alpha),
+            ("beta", w.beta),
+            ("gamma", w.gamma),
+            ("eta", w.eta),
+            ("delta", w.delta),
+        ] {
+            assert_eq!(by_name(&p, name), v, "{name}");
+        }
+        assert_eq!(CostWeights::from_params(&p), w);
+        // SuslovProblem::params is the same assembly.
+        let problem = super::super::paper::problem(0.5);
+        assert_eq!(
+            problem.params(),
+            model_params(problem.inertia.diag().into(), &problem.weights)
+        );
+        assert_eq!(CostWeights::from_params(&problem.params()), problem.weights);
     }
 }

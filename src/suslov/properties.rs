@@ -111,13 +111,16 @@ pub fn check_properties(
             r.max_power = power;
             r.t_max_power = t;
         }
-        let defect = (inertia.apply(&jet.d1) - i_om.cross(&jet.value)).norm();
+        // |ξ̃| = λ of the singular control, and |ξ̇_p| (infinite where P3 fails).
+        let (defect, xi_dot) = match singular_control(inertia, &jet.value, &jet.d1, &jet.d2) {
+            Ok(c) => (c.lambda, c.xi_dot.norm()),
+            Err(SuslovError::EulerSolution { norm, .. }) => (norm, f64::INFINITY),
+            Err(_) => (f64::NAN, f64::INFINITY),
+        };
         if defect < r.min_euler_defect {
             r.min_euler_defect = defect;
             r.t_min_euler_defect = t;
         }
-        let xi_dot = singular_control(inertia, &jet.value, &jet.d1, &jet.d2)
-            .map_or(f64::INFINITY, |c| c.xi_dot.norm());
         if xi_dot > r.max_xi_dot {
             r.max_xi_dot = xi_dot;
             r.t_max_xi_dot = t;

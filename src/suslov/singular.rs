@@ -10,13 +10,18 @@
 //! `λ̇ = ⟨ξ_p, ξ̃̇⟩`, `λ̈ = ⟨ξ̇_p, ξ̃̇⟩ + ⟨ξ_p, ξ̃̈⟩` and `ξ̈_p = (ξ̃̈ − 2λ̇ξ̇_p − λ̈ξ_p)/λ`
 //! ([`singular_jet`]), e.g. for the derivative of a BVP initial guess containing `ξ̇`.
 //!
-//! This plain-Rust version is an independent cross-check of the generated one.
+//! All of it is the generated `singular_jet` (derived in `codegen/`, for any Lie algebra:
+//! `ξ̃ = IΩ̇ − ad*_Ω IΩ`); this module adds the Property 3 check and `nalgebra` types. The
+//! tests compare it with an independent evaluation of the formulas above.
 
 use nalgebra::Vector3;
 
 use super::desired::{DesiredPath, Jet};
 use super::ellipsoid::Inertia;
+use super::layout::stack;
+use super::problem::inertia_params;
 use super::SuslovError;
+use crate::model::generated::{self as g, DIM};
 
 /// `|ξ̃|` below `SINGULAR_REL_TOL · (|IΩ̇| + |IΩ||Ω|)` counts as 0 (Property 3 violated).
 pub const SINGULAR_REL_TOL: f64 = 1e-10;
@@ -45,6 +50,39 @@ pub struct SingularJet {
     pub xi_ddot: Vector3<f64>,
 }
 
+/// The generated `singular_jet` at `[Ω_p, Ω̇_p, Ω̈_p, Ω⃛_p]`, checked for Property 3:
+/// `(control, ξ̈_p)`.
+fn evaluate(
+    inertia: &Inertia,
+    [omega, omega_dot, omega_ddot, omega_dddot]: [&Vector3<f64>; 4],
+) -> Result<(SingularControl, Vector3<f64>), SuslovError> {
+    let input: [f64; 4 * DIM] = stack(&[
+        omega.as_slice(),
+        omega_dot.as_slice(),
+        omega_ddot.as_slice(),
+        omega_dddot.as_slice(),
+    ]);
+    // [ξ̃, ξ_p, ξ̇_p, ξ̈_p] and [λ, λ̇, λ̈].
+    let mut xi = [0.0; 4 * DIM];
+    let mut lambda = [0.0; 3];
+    g::singular_jet(&input, &inertia_params(inertia), &mut xi, &mut lambda);
+    let [norm, lambda_dot, _] = lambda;
+    let scale = inertia.apply(omega_dot).norm() + inertia.apply(omega).norm() * omega.norm();
+    if !(norm.is_finite() && norm > SINGULAR_REL_TOL * scale) {
+        return Err(SuslovError::EulerSolution { norm, scale });
+    }
+    let mut blocks = xi.chunks_exact(DIM).map(Vector3::from_column_slice);
+    let mut next = || blocks.next().expect("four blocks");
+    let control = SingularControl {
+        xi_tilde: next(),
+        xi: next(),
+        xi_dot: next(),
+        lambda: norm,
+        lambda_dot,
+    };
+    Ok((control, next()))
+}
+
 /// `ξ_p`, `ξ̇_p` from `Ω_p`, `Ω̇_p`, `Ω̈_p` (paper eq. `xi_p_eq`).
 ///
 /// Errors with [`SuslovError::EulerSolution`] when `|ξ̃|` is ~0 (relative to
@@ -55,44 +93,15 @@ pub fn singular_control(
     omega_dot: &Vector3<f64>,
     omega_ddot: &Vector3<f64>,
 ) -> Result<SingularControl, SuslovError> {
-    let i_om = inertia.apply(omega);
-    let i_om_dot = inertia.apply(omega_dot);
-    let xi_tilde = i_om_dot - i_om.cross(omega);
-    let norm = xi_tilde.norm();
-    let scale = i_om_dot.norm() + i_om.norm() * omega.norm();
-    if !(norm.is_finite() && norm > SINGULAR_REL_TOL * scale) {
-        return Err(SuslovError::EulerSolution { norm, scale });
-    }
-    let xi = xi_tilde / norm;
-    let xi_tilde_dot = inertia.apply(omega_ddot) - i_om_dot.cross(omega) - i_om.cross(omega_dot);
-    let lambda_dot = xi.dot(&xi_tilde_dot);
-    let xi_dot = (xi_tilde_dot - xi * lambda_dot) / norm;
-    Ok(SingularControl {
-        xi_tilde,
-        xi,
-        xi_dot,
-        lambda: norm,
-        lambda_dot,
-    })
+    // Ω⃛ only enters ξ̈_p and λ̈, which are dropped.
+    let unused = Vector3::zeros();
+    evaluate(inertia, [omega, omega_dot, omega_ddot, &unused]).map(|(c, _)| c)
 }
 
 /// [`singular_control`] plus `ξ̈_p`, from the full jet `(Ω_p, Ω̇_p, Ω̈_p, Ω⃛_p)`.
 pub fn singular_jet(inertia: &Inertia, jet: &Jet) -> Result<SingularJet, SuslovError> {
-    let c = singular_control(inertia, &jet.value, &jet.d1, &jet.d2)?;
-    let (om, d1, d2) = (&jet.value, &jet.d1, &jet.d2);
-    let i_om = inertia.apply(om);
-    let i_d1 = inertia.apply(d1);
-    let xi_tilde_dot = inertia.apply(d2) - i_d1.cross(om) - i_om.cross(d1);
-    let xi_tilde_ddot = inertia.apply(&jet.d3)
-        - inertia.apply(d2).cross(om)
-        - i_d1.cross(d1) * 2.0
-        - i_om.cross(d2);
-    let lambda_ddot = c.xi_dot.dot(&xi_tilde_dot) + c.xi.dot(&xi_tilde_ddot);
-    let xi_ddot = (xi_tilde_ddot - c.xi_dot * (2.0 * c.lambda_dot) - c.xi * lambda_ddot) / c.lambda;
-    Ok(SingularJet {
-        control: c,
-        xi_ddot,
-    })
+    let (control, xi_ddot) = evaluate(inertia, [&jet.value, &jet.d1, &jet.d2, &jet.d3])?;
+    Ok(SingularJet { control, xi_ddot })
 }
 
 /// [`singular_control`] of a path at time `t`, with its exact derivatives.
@@ -212,6 +221,72 @@ mod tests {
                 max_relative = 1e-12,
                 epsilon = 1e-12
             );
+        }
+    }
+
+    /// The formulas of the module docs, evaluated independently of the generator (nalgebra,
+    /// diagonal `I`).
+    fn by_hand(i: &Inertia, jet: &Jet) -> (SingularControl, Vector3<f64>) {
+        let (om, d1, d2) = (&jet.value, &jet.d1, &jet.d2);
+        let i_om = i.apply(om);
+        let i_d1 = i.apply(d1);
+        let xi_tilde = i_d1 - i_om.cross(om);
+        let norm = xi_tilde.norm();
+        let xi = xi_tilde / norm;
+        let xi_tilde_dot = i.apply(d2) - i_d1.cross(om) - i_om.cross(d1);
+        let lambda_dot = xi.dot(&xi_tilde_dot);
+        let xi_dot = (xi_tilde_dot - xi * lambda_dot) / norm;
+        let xi_tilde_ddot =
+            i.apply(&jet.d3) - i.apply(d2).cross(om) - i_d1.cross(d1) * 2.0 - i_om.cross(d2);
+        let lambda_ddot = xi_dot.dot(&xi_tilde_dot) + xi.dot(&xi_tilde_ddot);
+        let xi_ddot = (xi_tilde_ddot - xi_dot * (2.0 * lambda_dot) - xi * lambda_ddot) / norm;
+        let c = SingularControl {
+            xi_tilde,
+            xi,
+            xi_dot,
+            lambda: norm,
+            lambda_dot,
+        };
+        (c, xi_ddot)
+    }
+
+    #[test]
+    fn generated_jet_agrees_with_an_independent_evaluation() {
+        let p = PaperSpiral::paper();
+        let segment = crate::suslov::desired::ProjectedSegment::new(
+            Inertia::paper(),
+            p.omega_a(),
+            p.omega_b(),
+            0.0,
+            10.0,
+        )
+        .unwrap();
+        for i in [Inertia::paper(), Inertia::new([0.7, 1.9, 2.6]).unwrap()] {
+            for path in [p.phi_par() as &dyn DesiredPath, &p, &segment] {
+                for t in [0.0, 0.7, 3.3, 8.1, 9.9, 10.0] {
+                    let jet = path.jet(t);
+                    let (want, want_dd) = by_hand(&i, &jet);
+                    let got = singular_jet(&i, &jet).unwrap();
+                    let c = got.control;
+                    let close = |a: &Vector3<f64>, b: &Vector3<f64>| {
+                        (a - b).norm() <= 1e-12 * b.norm().max(1.0)
+                    };
+                    assert!(close(&c.xi_tilde, &want.xi_tilde), "t = {t}");
+                    assert!(close(&c.xi, &want.xi), "t = {t}");
+                    assert!(close(&c.xi_dot, &want.xi_dot), "t = {t}");
+                    assert!(close(&got.xi_ddot, &want_dd), "t = {t}");
+                    assert_relative_eq!(c.lambda, want.lambda, max_relative = 1e-14);
+                    assert_relative_eq!(
+                        c.lambda_dot,
+                        want.lambda_dot,
+                        max_relative = 1e-12,
+                        epsilon = 1e-12
+                    );
+                    // Without Ω⃛ (singular_control): the same ξ̃, ξ_p, ξ̇_p, λ, λ̇, bit for bit.
+                    let c2 = singular_control(&i, &jet.value, &jet.d1, &jet.d2).unwrap();
+                    assert_eq!(c2, c);
+                }
+            }
         }
     }
 

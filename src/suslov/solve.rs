@@ -27,10 +27,13 @@ use std::sync::Arc;
 
 use crate::bvp::{self, Guess, Solution};
 use crate::continuation::{self, StepRecord};
-use crate::model::generated as g;
+use crate::model::generated::{
+    self as g, idx, DIM, KAPPA, N_PARAM, N_STATE, OMEGA, PARAM_NAMES, XI, XIDOT,
+};
 
 use super::desired::{DesiredPath, ProjectedPath, ProjectedSegment};
-use super::problem::{ProblemError, SuslovBvp, SuslovProblem, TerminalTime};
+use super::layout::stack;
+use super::problem::{CostWeights, ProblemError, SuslovBvp, SuslovProblem, TerminalTime, SPAN};
 use super::properties::check_properties;
 
 /// `Ω_d` counts as admissible (paper's third case) when its relative energy deviation from
@@ -178,8 +181,8 @@ impl SuslovSolution {
     }
 
     /// `y(t) = [Ω, ξ, ξ̇, κ]` at physical time `t ∈ [a, b]`.
-    pub fn state(&self, t: f64) -> [f64; 12] {
-        let mut y = [0.0; 12];
+    pub fn state(&self, t: f64) -> [f64; N_STATE] {
+        let mut y = [0.0; N_STATE];
         self.bvp
             .eval_into((t - self.problem.t0) / self.t_span, &mut y);
         y
@@ -252,7 +255,7 @@ pub enum SolveError {
 /// The working state of the homotopy: constants, mode and current solution.
 struct Homotopy<'p> {
     problem: &'p SuslovProblem,
-    params: [f64; 8],
+    params: [f64; N_PARAM],
     fixed_span: Option<f64>,
     t_span: f64,
     solution: Solution,
@@ -266,7 +269,7 @@ struct Homotopy<'p> {
 }
 
 impl Homotopy<'_> {
-    fn bvp_with(&self, params: [f64; 8], fixed_span: Option<f64>) -> SuslovBvp<'_> {
+    fn bvp_with(&self, params: [f64; N_PARAM], fixed_span: Option<f64>) -> SuslovBvp<'_> {
         SuslovBvp {
             params,
             omega_a: self.problem.omega_a.into(),
@@ -279,12 +282,7 @@ impl Homotopy<'_> {
 
     fn snapshot(&self) -> SuslovSolution {
         let mut problem = self.problem.clone();
-        let p = self.params;
-        problem.weights.alpha = p[3];
-        problem.weights.beta = p[4];
-        problem.weights.gamma = p[5];
-        problem.weights.eta = p[6];
-        problem.weights.delta = p[7];
+        problem.weights = CostWeights::from_params(&self.params);
         if self.fixed_span.is_none() {
             problem.terminal = TerminalTime::Free {
                 guess: problem.t0 + self.t_span,
@@ -300,7 +298,7 @@ impl Homotopy<'_> {
         }
     }
 
-    /// Continue parameter `index` of the constants along `value(λ)`, `λ ∈ [0, 1]`.
+    /// Continue parameter `index` (an `idx::*`) of the constants along `value(λ)`, `λ ∈ [0, 1]`.
     #[allow(clippy::too_many_arguments)]
     fn stage(
         &mut self,
@@ -346,7 +344,7 @@ impl Homotopy<'_> {
         self.params[index] = value(outcome.lambda);
         self.solution = outcome.solution.clone();
         if self.fixed_span.is_none() {
-            self.t_span = self.solution.p[0];
+            self.t_span = self.solution.p[SPAN];
         }
         let report = StageReport {
             name,
@@ -370,7 +368,7 @@ impl Homotopy<'_> {
         if let StageOutcome::Stopped { reason } = &self.stages[self.stages.len() - 1].outcome {
             return Err(SolveError::StageFailed {
                 stage: name,
-                parameter: crate::model::generated::PARAM_NAMES[index],
+                parameter: PARAM_NAMES[index],
                 reached: value(outcome.lambda),
                 target: to,
                 reason: reason.clone(),
@@ -434,7 +432,7 @@ impl Homotopy<'_> {
         }
         self.solution = sol;
         if self.fixed_span.is_none() {
-            self.t_span = self.solution.p[0];
+            self.t_span = self.solution.p[SPAN];
         }
         Ok(())
     }
@@ -557,10 +555,10 @@ pub fn solve(
 
     // Initial guess: the singular solution on a uniform mesh (stages sampled too).
     let mut params = problem.params();
-    params[4] = beta_m;
-    params[6] = 0.0;
-    params[7] = 0.0;
-    params[5] = match start.case {
+    params[idx::BETA] = beta_m;
+    params[idx::ETA] = 0.0;
+    params[idx::DELTA] = 0.0;
+    params[idx::GAMMA] = match start.case {
         1 => 1.0,
         2 => 0.0,
         _ => w.gamma,
@@ -568,21 +566,21 @@ pub fn solve(
     let m = options.initial_intervals.max(2);
     let x: Vec<f64> = (0..=m).map(|i| i as f64 / m as f64).collect();
     let mut bad = None;
-    let guess = Guess::from_fn(&x, 12, vec![], |s, out| {
+    let guess = Guess::from_fn(&x, N_STATE, vec![], |s, out| {
         let t = problem.t0 + s * t_p;
         let j = omega_p.jet(t);
-        let om = [
-            j.value[0], j.value[1], j.value[2], j.d1[0], j.d1[1], j.d1[2], j.d2[0], j.d2[1],
-            j.d2[2],
-        ];
-        let mut xi = [0.0; 6];
+        // [Ω_p, Ω̇_p, Ω̈_p] in, [ξ_p, ξ̇_p] out.
+        let om: [f64; 3 * DIM] = stack(&[j.value.as_slice(), j.d1.as_slice(), j.d2.as_slice()]);
+        let mut xi = [0.0; 2 * DIM];
         g::singular_control(&om, &params, &mut xi);
         if xi.iter().any(|v| !v.is_finite()) && bad.is_none() {
             bad = Some(t);
         }
-        out[..3].copy_from_slice(&om[..3]);
-        out[3..9].copy_from_slice(&xi);
-        out[9..].fill(0.0);
+        let (xi_p, xi_p_dot) = xi.split_at(DIM);
+        out[OMEGA].copy_from_slice(j.value.as_slice());
+        out[XI].copy_from_slice(xi_p);
+        out[XIDOT].copy_from_slice(xi_p_dot);
+        out[KAPPA].fill(0.0);
     });
     if let Some(t) = bad {
         return Err(SolveError::Start(format!(
@@ -674,12 +672,20 @@ pub fn solve(
 
     match h.start.case {
         1 => {
-            h.stage("gamma", 5, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?;
+            h.stage("gamma", idx::GAMMA, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?;
             h.tracking = problem.desired.clone(); // γ = 0 from here on: Ω_d has no effect
         }
         2 => {
             let gamma = w.gamma;
-            h.stage("gamma", 5, 0.0, gamma, &move |l| l * gamma, &cont, events)?
+            h.stage(
+                "gamma",
+                idx::GAMMA,
+                0.0,
+                gamma,
+                &move |l| l * gamma,
+                &cont,
+                events,
+            )?
         }
         _ => {}
     }
@@ -687,31 +693,31 @@ pub fn solve(
         let (lo, hi) = (beta_m.ln(), w.beta.ln());
         h.stage(
             "beta",
-            4,
+            idx::BETA,
             beta_m,
             w.beta,
             &move |l| (lo + l * (hi - lo)).exp(),
             &cont,
             events,
         )?;
-        h.params[4] = w.beta;
+        h.params[idx::BETA] = w.beta;
     }
     if w.eta > 0.0 {
         let eta = w.eta;
-        h.stage("eta", 6, 0.0, eta, &move |l| l * eta, &cont, events)?;
+        h.stage("eta", idx::ETA, 0.0, eta, &move |l| l * eta, &cont, events)?;
     }
     match problem.terminal {
         TerminalTime::Fixed(_) => {
             if w.delta != 0.0 {
-                h.params[7] = w.delta; // δ only shifts the cost at fixed time
+                h.params[idx::DELTA] = w.delta; // δ only shifts the cost at fixed time
             }
         }
         TerminalTime::Free { .. } => {
-            let yb: [f64; 12] = h.solution.eval(1.0).try_into().expect("n = 12");
+            let yb: [f64; N_STATE] = h.solution.eval(1.0).try_into().expect("n = N_STATE");
             let bvp0 = h.bvp_with(h.params, h.fixed_span);
             let wb = bvp0.desired_at(problem.t0 + t_p);
             let delta_c = g::delta_start(&yb, &h.params, &wb);
-            h.params[7] = delta_c;
+            h.params[idx::DELTA] = delta_c;
             h.fixed_span = None;
             let guess = Guess::from_solution(&h.solution).with_parameters(vec![t_p]);
             h.single_solve(
@@ -723,7 +729,7 @@ pub fn solve(
             let delta = w.delta;
             h.stage(
                 "delta",
-                7,
+                idx::DELTA,
                 delta_c,
                 delta,
                 &move |l| delta_c + l * (delta - delta_c),
