@@ -378,3 +378,106 @@ def emit_vector_checks(functions):
     lines.append("    failures")
     lines.append("}")
     return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------------------------
+# The model-independent trait over every model's functions
+
+
+def slice_signature(sig):
+    """A signature dict (generate.signatures) with slices instead of fixed-size arrays
+    (matrices row-major flat), for the `Model` trait that generic code uses."""
+    params, ret = [], ""
+    for name, kind in sig["args"]:
+        params.append(f"{name}: &[f64]" if kind == "array" else f"{name}: f64")
+    for name, kind, _ in sig["outputs"]:
+        if kind == "return":
+            ret = " -> f64"
+        else:
+            params.append(f"{name}: &mut [f64]")
+    return f"fn {sig['name']}({', '.join(params)}){ret}"
+
+
+def trait_text(sigs):
+    """`pub trait Model`: every generated function as a slice-based method, plus metadata."""
+    lines = [
+        "/// A generated model: its metadata and every generated function, with slices instead",
+        "/// of fixed-size arrays so that generic code (the BVP, the homotopy, the checks) can be",
+        "/// written once for every model. Implemented by `so3::So3`, `se2::Se2`, ... (generated).",
+        "#[allow(clippy::too_many_arguments)]",
+        "pub trait Model: Copy + Default + Send + Sync + 'static {",
+        "    /// The model's name (its file `codegen/models/<name>.py`).",
+        "    const NAME: &'static str;",
+        "    /// Dimension n of the Lie algebra.",
+        "    const DIM: usize;",
+        "    /// Number of states of the optimality system (4n).",
+        "    const N_STATE: usize;",
+        "    /// Number of constants p (user parameters, then derived constants).",
+        "    const N_PARAM: usize;",
+        "    /// Number of user parameters at the front of p.",
+        "    const N_USER_PARAM: usize;",
+        "    /// Names of the states.",
+        "    const STATE_NAMES: &'static [&'static str];",
+        "    /// Names of the constants p.",
+        "    const PARAM_NAMES: &'static [&'static str];",
+        "    /// The inertia parameters.",
+        "    const INERTIA_PARAMS: &'static [ParamMeta];",
+        "    /// The weights of the cost.",
+        "    const WEIGHTS: &'static [ParamMeta];",
+        "    /// The constraint-value parameters.",
+        "    const CONSTRAINT_PARAMS: &'static [ParamMeta];",
+        "    /// (index in p, row, column) of the derived entries of I^-1.",
+        "    const INERTIA_INVERSE_SLOTS: &'static [(usize, usize, usize)];",
+        "    /// The basis names of the Lie algebra.",
+        "    const BASIS_NAMES: &'static [&'static str];",
+    ]
+    for sig in sigs:
+        first = sig["doc"].strip().splitlines()[0]
+        lines += [f"    /// {first}", "    ///",
+                  "    /// Slices of exactly the sizes of the model's generated function of this",
+                  "    /// name (matrices flat, row-major). Panics on a wrong length."]
+        lines.append(f"    {slice_signature(sig)};")
+    lines.append("}")
+    return "\n".join(lines)
+
+
+def impl_text(type_name, fns):
+    """`impl super::Model for <type_name>` forwarding to the module's functions."""
+    lines = [
+        "#[allow(clippy::too_many_arguments)]",
+        "impl super::Model for " + type_name + " {",
+        "    const NAME: &'static str = MODEL_NAME;",
+        "    const DIM: usize = DIM;",
+        "    const N_STATE: usize = N_STATE;",
+        "    const N_PARAM: usize = N_PARAM;",
+        "    const N_USER_PARAM: usize = N_USER_PARAM;",
+        "    const STATE_NAMES: &'static [&'static str] = &STATE_NAMES;",
+        "    const PARAM_NAMES: &'static [&'static str] = &PARAM_NAMES;",
+        "    const INERTIA_PARAMS: &'static [ParamMeta] = &INERTIA_PARAMS;",
+        "    const WEIGHTS: &'static [ParamMeta] = &WEIGHTS;",
+        "    const CONSTRAINT_PARAMS: &'static [ParamMeta] = &CONSTRAINT_PARAMS;",
+        "    const INERTIA_INVERSE_SLOTS: &'static [(usize, usize, usize)] = &INERTIA_INVERSE_SLOTS;",
+        "    const BASIS_NAMES: &'static [&'static str] = &BASIS_NAMES;",
+    ]
+    for fn in fns:
+        call = []
+        for a in fn.args:
+            if isinstance(a, Arg):
+                call.append(f"{a.name}.try_into().expect(\"{fn.name}: length of `{a.name}`\")")
+            else:
+                call.append(a.name)
+        for o in fn.outputs:
+            if o.kind == "array":
+                call.append(f"{o.name}.try_into().expect(\"{fn.name}: length of `{o.name}`\")")
+            elif o.kind == "matrix":
+                r, c = o.exprs.shape
+                call.append(f"{o.name}.as_chunks_mut::<{c}>().0.try_into()"
+                            f".expect(\"{fn.name}: length of `{o.name}`\")")
+        sig = {"name": fn.name,
+               "args": [[a.name, "array" if isinstance(a, Arg) else "scalar"] for a in fn.args],
+               "outputs": [[o.name, o.kind, None] for o in fn.outputs]}
+        lines.append(f"    {slice_signature(sig)} {{")
+        lines.append(f"        {fn.name}({', '.join(call)})")
+        lines.append("    }")
+    lines.append("}")
+    return "\n".join(lines)

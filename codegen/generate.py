@@ -12,6 +12,7 @@ Exit status 3 means the environment is wrong (sympy missing or not the pinned ve
 
 import argparse
 import hashlib
+import json
 import os
 import random
 import sys
@@ -63,7 +64,7 @@ import control as CTRL  # noqa: E402
 import derive as D  # noqa: E402
 import model as MODEL  # noqa: E402
 from emit_rust import Arg, Function, Out, Scalar, emit_function, emit_vector_checks, \
-    flat_outputs  # noqa: E402
+    flat_outputs, impl_text, trait_text  # noqa: E402
 from slp import Program  # noqa: E402
 
 T_SPAN = sp.Symbol("t_span", positive=True)
@@ -511,7 +512,16 @@ def module_text(M, fns, h):
              f'pub const SOURCE_HASH: &str = "{h}";'] + metadata(M)
     for fn in fns:
         parts.append(emit_function(fn))
+    tn = type_name(M.NAME)
+    parts.append(f"/// The `{M.NAME}` model as a type, for code generic over [`super::Model`].\n"
+                 f"#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]\npub struct {tn};")
+    parts.append(impl_text(tn, fns))
     return "\n\n".join(parts) + "\n"
+
+
+def type_name(name):
+    """The model's type: its name in upper camel case (so3 -> So3)."""
+    return "".join(w[:1].upper() + w[1:] for w in name.split("_"))
 
 
 def model_key(name, h):
@@ -528,7 +538,21 @@ def cached(name, out, h):
         return False
     return key == model_key(name, h) and all(
         os.path.isfile(os.path.join(out, f"{name}{suffix}"))
-        for suffix in ("_model.rs", "_vectors.rs", "_formulas.txt"))
+        for suffix in ("_model.rs", "_vectors.rs", "_formulas.txt")) and os.path.isfile(
+        os.path.join(out, f".{name}.sig.json"))
+
+
+def signatures(fns):
+    """What the trait needs of a function list: names, docs, argument and output kinds."""
+    return [{"name": f.name, "doc": f.doc,
+             "args": [[a.name, "array" if isinstance(a, Arg) else "scalar"] for a in f.args],
+             "outputs": [[o.name, o.kind, list(o.exprs.shape) if o.kind == "matrix" else None]
+                         for o in f.outputs]} for f in fns]
+
+
+def read_signatures(out, name):
+    with open(os.path.join(out, f".{name}.sig.json")) as fh:
+        return json.load(fh)
 
 
 def generate_model(name, out, h):
@@ -545,6 +569,7 @@ def generate_model(name, out, h):
     }
     for fname, text in files.items():
         write(out, fname, text)
+    write(out, f".{name}.sig.json", json.dumps(signatures(fns), indent=1, sort_keys=True))
     write(out, f".{name}.key", model_key(name, h))
     return name
 
@@ -567,7 +592,7 @@ def main():
             pool.starmap(generate_model, [(n, args.out, hashes[n]) for n in todo])
     elif todo:
         generate_model(todo[0], args.out, hashes[todo[0]])
-    write(args.out, "models.rs", index_text(names, h))
+    write(args.out, "models.rs", index_text(names, h, args.out))
     write(args.out, "vectors.rs", vectors_index_text(names, h))
 
 
@@ -575,10 +600,21 @@ ALLOW = "#[allow(clippy::all, non_snake_case, unused_variables, unused_parens, "
     "clippy::too_many_arguments, clippy::excessive_precision)]"
 
 
-def index_text(names, h):
+def index_text(names, h, out):
     """models.rs: one module per model (included by src/model/mod.rs), and `vectors`, the
     test-vector checks of every model (included by tests/generated_vectors.rs)."""
     lines = [HEADER.format(model="*", version=sp.__version__, hash=h)]
+    # The trait is the same for every model (one derivation, one list of functions); it is
+    # printed from the first model's list, and every model's list is checked to match it.
+    lists = {n: read_signatures(out, n) for n in names}
+
+    def shape(sigs):  # what the trait's methods depend on
+        return [(f["name"], f["args"], [o[:2] for o in f["outputs"]]) for f in sigs]
+    for n in names:
+        if shape(lists[n]) != shape(lists[names[0]]):
+            raise AssertionError(f"model {n} emits a different list of functions")
+    lines.append(trait_text(lists[names[0]]))
+    lines.append("")
     for name in names:
         M = MODEL.load(name)
         lines += [f"/// `{name}`: {M.TITLE} (generated from `codegen/models/{name}.py`).",

@@ -14,7 +14,7 @@
 //! constants (`I⁻¹` for a non-diagonal inertia) are filled by inverting `inertia_matrix`.
 
 use nalgebra::DMatrix;
-use suslov::model::ParamMeta;
+use suslov::model::{fill_derived, Model, ParamMeta};
 
 /// A small deterministic generator (splitmix64), so the points are seeded and reproducible.
 struct Rng(u64);
@@ -46,8 +46,42 @@ fn close(got: f64, want: f64, rtol: f64) -> bool {
     (got - want).abs() <= rtol * (1.0 + want.abs())
 }
 
+/// Through the generic [`Model`] trait (slices, flat row-major matrices): the constants agree
+/// with the module's, `fill_derived` gives the inverse inertia, and the flat Jacobian of
+/// `ode_jac_scaled` is the row-major finite-difference Jacobian of `ode_rhs_scaled`.
+fn check_through_the_trait<M: Model>(p: &mut [f64], y: &[f64], w: &[f64]) {
+    fill_derived::<M>(p).expect("admissible parameters");
+    let n = M::N_STATE;
+    let (mut dgdy, mut dgdt) = (vec![0.0; n * n], vec![0.0; n]);
+    M::ode_jac_scaled(y, p, w, 2.0, 0.3, &mut dgdy, &mut dgdt);
+    let h = 1e-6;
+    for j in 0..n {
+        let (mut a, mut b) = (y.to_vec(), y.to_vec());
+        a[j] += h;
+        b[j] -= h;
+        let (mut fa, mut fb) = (vec![0.0; n], vec![0.0; n]);
+        M::ode_rhs_scaled(&a, p, w, 2.0, &mut fa);
+        M::ode_rhs_scaled(&b, p, w, 2.0, &mut fb);
+        for r in 0..n {
+            let want = (fa[r] - fb[r]) / (2.0 * h);
+            assert!(
+                close(dgdy[r * n + j], want, 1e-6),
+                "{}: dg{r}/dy{j}",
+                M::NAME
+            );
+        }
+    }
+    assert!(
+        {
+            let short = p.len() - 1;
+            fill_derived::<M>(&mut p[..short]).is_err()
+        },
+        "a wrong length is refused"
+    );
+}
+
 macro_rules! model_checks {
-    ($m:ident) => {
+    ($m:ident, $t:ident) => {
         mod $m {
             use super::*;
             use suslov::model::$m as g;
@@ -113,6 +147,24 @@ macro_rules! model_checks {
                         col
                     })
                     .collect()
+            }
+
+            #[test]
+            fn the_generic_trait_forwards_to_the_generated_functions() {
+                let mut rng = Rng(7);
+                let mut p = params(&mut rng);
+                let y = state(&mut rng);
+                let w: [f64; N_DESIRED] = vec_of(&mut rng);
+                assert_eq!(<g::$t as Model>::N_STATE, N_STATE);
+                assert_eq!(<g::$t as Model>::NAME, MODEL_NAME);
+                let derived = p;
+                for &(slot, _, _) in INERTIA_INVERSE_SLOTS.iter() {
+                    p[slot] = f64::NAN;
+                }
+                check_through_the_trait::<g::$t>(&mut p, &y, &w);
+                for (a, b) in p.iter().zip(derived.iter()) {
+                    assert!(close(*a, *b, 1e-12), "fill_derived: {a} vs {b}");
+                }
             }
 
             #[test]
@@ -376,6 +428,6 @@ macro_rules! model_checks {
     };
 }
 
-model_checks!(so3);
-model_checks!(se2);
-model_checks!(so4);
+model_checks!(so3, So3);
+model_checks!(se2, Se2);
+model_checks!(so4, So4);

@@ -107,13 +107,17 @@ fn run_case_records_an_unverified_loose_solve_in_summary_json() {
 }
 
 /// The paper's two cases at the default options: converged, every quantity check passed with
-/// a margin of at least 10, and b and the cost exactly as before the gate (values recorded
-/// from `suslov paper` on the commit before it).
+/// a margin of at least 10, and b and the cost exactly as recorded (from `suslov paper`; the
+/// gate only judges a solution and must not change it). Re-recorded when the generator moved
+/// to model files: sympy orders the terms of a sum by symbol name, so renaming intermediates of
+/// the generated code reordered a few sums; that moved b (eta = 1) by 5e-16 relative
+/// (11.35961620347682 -> ...826) and the costs by 6e-16 and 2e-15 (was 15.394760771339975 and
+/// 2.6658490597410194).
 #[test]
 fn the_paper_cases_still_converge_with_unchanged_results() {
     for (eta, b, cost) in [
-        (1.0, 11.35961620347682, 15.394760771339975),
-        (0.01, 9.838326431487959, 2.6658490597410194),
+        (1.0, 11.359616203476826, 15.394760771339984),
+        (0.01, 9.838326431487959, 2.6658490597410136),
     ] {
         let sol = solve(&paper::problem(eta), &SolveOptions::default(), &mut |_| {})
             .unwrap_or_else(|e| panic!("{e}"));
@@ -137,14 +141,15 @@ fn the_paper_cases_still_converge_with_unchanged_results() {
 }
 
 /// The README's table of `value / tol` (release build) for two examples: the ratios come out
-/// as recorded (within 10 %), and each is at least 10 times below its K.
+/// as recorded (within 10 %; re-integration within a factor 2, see below), and each is at
+/// least 10 times below its K.
 #[test]
 fn measured_ratios_match_the_readme_table() {
     // (file, tol, local error, constraint, energy, re-integration), each divided by tol.
     let table = [
         ("segment.toml", 1e-6, 7.69e-1, 1.55e-2, 4.88e-2, 2.09e-3),
         ("segment.toml", 1e-8, 1.26e0, 2.19e-2, 5.43e-2, 1.11e-3),
-        ("no_tracking.toml", 1e-8, 4.71e-1, 2.63e-3, 1.60e-1, 9.13e-3),
+        ("no_tracking.toml", 1e-8, 4.71e-1, 2.63e-3, 1.60e-1, 7.88e-3),
     ];
     for (file, tol, loc, con, en, re) in table {
         let v = verify_solution(&solved(file, tol));
@@ -156,8 +161,17 @@ fn measured_ratios_match_the_readme_table() {
             ("reintegration", re, K_REINTEGRATION),
         ] {
             let r = ratio(name);
+            // Re-integration at tol <= 1e-6 sits at the IVP integrator's own error floor, so
+            // a rounding change in the model code moves it by tens of percent (9.13e-3 ->
+            // 7.88e-3 for no_tracking at 1e-8 when sums were reordered): a factor 2 there;
+            // the margin to K below is the real guard.
+            let within = if name == "reintegration" {
+                (0.5..=2.0).contains(&(r / recorded))
+            } else {
+                (r / recorded - 1.0).abs() <= 0.1
+            };
             assert!(
-                (r / recorded - 1.0).abs() <= 0.1,
+                within,
                 "{file} at {tol:e}: {name} / tol = {r:.3e}, README {recorded:.3e}"
             );
             assert!(

@@ -65,6 +65,66 @@ impl ParamMeta {
 
 include!(concat!(env!("OUT_DIR"), "/models.rs"));
 
+/// Why the derived constants of a parameter vector could not be filled.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DerivedError {
+    /// `p` does not have the model's length.
+    #[error("the constant vector has {got} entries, the model {model} needs {expected}")]
+    Length {
+        /// The model.
+        model: &'static str,
+        /// Its `N_PARAM`.
+        expected: usize,
+        /// The length given.
+        got: usize,
+    },
+    /// The inertia is not symmetric positive definite (or not finite) for these parameters.
+    #[error(
+        "the inertia of model {model} is not symmetric positive definite for these \
+         parameters: check {names}"
+    )]
+    NotPositiveDefinite {
+        /// The model.
+        model: &'static str,
+        /// The inertia parameters, comma-separated.
+        names: String,
+    },
+}
+
+/// Fill the derived constants of `p` (the entries of 𝕀⁻¹ of a non-diagonal inertia, at
+/// `M::INERTIA_INVERSE_SLOTS`) from its inertia parameters: 𝕀 from `inertia_matrix`, inverted
+/// by a Cholesky factorisation, which also checks that 𝕀 is symmetric positive definite.
+/// Nothing to do for a diagonal inertia, but the check is made all the same.
+pub fn fill_derived<M: Model>(p: &mut [f64]) -> Result<(), DerivedError> {
+    if p.len() != M::N_PARAM {
+        return Err(DerivedError::Length {
+            model: M::NAME,
+            expected: M::N_PARAM,
+            got: p.len(),
+        });
+    }
+    let n = M::DIM;
+    let mut flat = vec![0.0; n * n];
+    M::inertia_matrix(p, &mut flat);
+    let mat = nalgebra::DMatrix::from_row_slice(n, n, &flat);
+    let not_pd = || DerivedError::NotPositiveDefinite {
+        model: M::NAME,
+        names: M::INERTIA_PARAMS
+            .iter()
+            .map(|m| m.name)
+            .collect::<Vec<_>>()
+            .join(", "),
+    };
+    if !flat.iter().all(|v| v.is_finite()) || mat != mat.transpose() {
+        return Err(not_pd());
+    }
+    let inv = mat.cholesky().ok_or_else(not_pd)?.inverse();
+    for &(slot, r, c) in M::INERTIA_INVERSE_SLOTS {
+        p[slot] = inv[(r, c)];
+    }
+    Ok(())
+}
+
 /// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
 /// solves.
 pub use so3 as generated;

@@ -7,7 +7,7 @@
 //! 1. **The direct problem.** Suslov's OCP in classical form ([`SuslovOcp`]): state
 //!    `x = [Ω, ξ]`, control `u = ξ̇`, dynamics `Ω̇ = F(Ω, ξ, ξ̇)`, `ξ̇ = u`, running cost
 //!    `C(Ω, F, ξ, ξ̇, Ω_d(t))`, `Ω(a) = Ω_a`, `Ω(b) = Ω_b`, `ξ` free at both ends, `b` fixed or
-//!    free. All derivatives, to second order, are generated from `codegen/model.py`
+//!    free. All derivatives, to second order, are generated from `codegen/models/so3.py`
 //!    (`direct_dynamics`, `direct_cost`, `direct_hessian`).
 //! 2. **Transcription on the solution's own mesh** with the solver's collocation (4-stage
 //!    Lobatto IIIA; [`crate::ocp::transcription`]).
