@@ -74,9 +74,8 @@ class AffineSystem:
                "d x_dot / d u depends on u (not control-affine)")
         self.f = xdot.subs({v: 0 for v in U})
         self.g = [G[:, i] for i in range(n)]
-        self._xdot = xdot
         self._brackets = None
-        self.spherical_symbol = sp.Symbol("c", positive=True)
+        self._program = None
         self._check(check_points, seed)
 
     @property
@@ -88,7 +87,13 @@ class AffineSystem:
         return self._brackets
 
     def program(self):
-        """(program over x, rows f, g_1..g_n as lists, brackets as lists), for emission."""
+        """(program over x, rows f, g_1..g_n as lists, brackets as lists), for emission;
+        built once (the structure checks and the generator use the same program)."""
+        if self._program is None:
+            self._program = self._build_program()
+        return self._program
+
+    def _build_program(self):
         M, n = self.M, self.M.n
         prog = Program(self.X, M.PARAMS)
         om_u = {v: 0 for v in self.U}
@@ -151,7 +156,7 @@ class AffineSystem:
         ad_invariant = all((M.algebra.ad(e) + M.algebra.ad(e).T).is_zero_matrix
                            for e in sp.eye(n).columnspace())
         if ad_invariant:
-            c = self.spherical_symbol
+            c = sp.Symbol("c", positive=True)
             params = [p.symbol for p in M.inertia_params]
             sol = sp.solve(list(M.INERTIA - c * sp.eye(n)), params, dict=True)
             if sol:

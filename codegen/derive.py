@@ -75,13 +75,6 @@ def inertia_solve(M, b):
     return M.INERTIA_INV * b
 
 
-def solve_linear(A, b):
-    """Solve A x = b symbolically; diagonal A is inverted entrywise."""
-    if all(is_zero(A[i, j]) for i in range(A.rows) for j in range(A.cols) if i != j):
-        return sp.Matrix([b[i] / A[i, i] for i in range(A.rows)])
-    return A.LUsolve(b)
-
-
 def is_diagonal(A):
     return all(is_zero(A[i, j]) for i in range(A.rows) for j in range(A.cols) if i != j)
 

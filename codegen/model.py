@@ -68,17 +68,14 @@ class Param:
         if self.lower == 0 and self.strict:
             self.symbol = sp.Symbol(self.name, positive=True)
 
-    def range_text(self):
-        lo = "-inf" if self.lower is None else f"{self.lower}"
-        hi = "inf" if self.upper is None else f"{self.upper}"
-        return f"{'(' if self.strict or self.lower is None else '['}{lo}, {hi}{')' if self.upper is None else ']'}"
-
 
 # Names the derivation uses for its own symbols (followed by digits): a model parameter may not
 # take one of them (checked by Model), nor contain "_" (Jacobian temporaries are d_..., dd_...).
-RESERVED_STEMS = ["Om", "OmDot", "OmDDot", "xi", "xiDot", "xiDDot", "kappa", "kappaDot", "Omd",
-                  "OmdDot", "OmdDDot", "OmEnd", "Iinv", "lam", "lambda", "oa", "ob", "ka", "kb",
-                  "sh", "sw", "sm", "xt", "xtn", "xip", "dxt", "x", "w", "s", "t", "z", "y", "p",
+# `t` is also the generated code's array of intermediates.
+RESERVED_STEMS = ["Om", "OmDot", "OmDDot", "OmDDDot", "xi", "xiDot", "xiDDot", "kappa",
+                  "kappaDot", "Omd", "OmdDot", "OmdDDot", "OmEnd", "Iinv", "lam", "lambda",
+                  "lamDot", "lamDDot", "dlam", "fom", "oa", "ob", "ka", "kb", "sh", "sw", "sm",
+                  "xt", "xtn", "xip", "xipDot", "dxt", "ddxt", "x", "w", "s", "t", "z", "y", "p",
                   "od", "wb", "out"]
 RESERVED = re.compile(r"^(" + "|".join(RESERVED_STEMS) + r")\d*$")
 IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")

@@ -220,16 +220,7 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
         .unwrap()
         .success());
     let config = example("segment.toml");
-    let o = run(
-        &[
-            "-q",
-            "certify",
-            config.to_str().unwrap(),
-            "--json",
-            fifo.to_str().unwrap(),
-        ],
-        120,
-    );
+    let o = certify_json(&config, &fifo);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(e.contains("fifo") && e.contains("regular file"), "{e}");
@@ -253,16 +244,7 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let summary = std::fs::read(out.join("summary.json")).unwrap();
     let target = out.join("summary.json");
-    let o = run(
-        &[
-            "-q",
-            "certify",
-            config.to_str().unwrap(),
-            "--json",
-            target.to_str().unwrap(),
-        ],
-        120,
-    );
+    let o = certify_json(&config, &target);
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
@@ -272,16 +254,7 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
     assert_eq!(std::fs::read(&target).unwrap(), summary);
     // A file of another name there is the user's: allowed, and the next run keeps it.
     let cert = out.join("certificate.json");
-    let o = run(
-        &[
-            "-q",
-            "certify",
-            config.to_str().unwrap(),
-            "--json",
-            cert.to_str().unwrap(),
-        ],
-        120,
-    );
+    let o = certify_json(&config, &cert);
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     let o = run(
         &[
@@ -298,6 +271,20 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
 }
 
 /// A fixed-time segment problem with `omega_a = s·[3, 0, 0]`, `omega_b = s·[1, 2, 0]`.
+/// `suslov -q certify CONFIG --json TARGET`.
+fn certify_json(config: &Path, target: &Path) -> Output {
+    run(
+        &[
+            "-q",
+            "certify",
+            config.to_str().unwrap(),
+            "--json",
+            target.to_str().unwrap(),
+        ],
+        120,
+    )
+}
+
 fn scaled_segment(dir: &Path, s: &str, b: &str) -> PathBuf {
     let path = dir.join(format!("scaled_{s}_{b}.toml"));
     std::fs::write(
