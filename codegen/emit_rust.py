@@ -430,6 +430,26 @@ def trait_text(sigs):
         "    const INERTIA_INVERSE_SLOTS: &'static [(usize, usize, usize)];",
         "    /// The basis names of the Lie algebra.",
         "    const BASIS_NAMES: &'static [&'static str];",
+        "    /// A one-line description of the model.",
+        "    const TITLE: &'static str;",
+        "    /// The blocks of the state y = [Omega, xi, xi', kappa].",
+        "    const OMEGA: core::ops::Range<usize>;",
+        "    /// See [`Model::OMEGA`].",
+        "    const XI: core::ops::Range<usize>;",
+        "    /// See [`Model::OMEGA`].",
+        "    const XIDOT: core::ops::Range<usize>;",
+        "    /// See [`Model::OMEGA`].",
+        "    const KAPPA: core::ops::Range<usize>;",
+        "    /// Number of desired-path inputs w = [Omega_d, Omega_d'].",
+        "    const N_DESIRED: usize;",
+        "    /// Number of boundary conditions at each end (without the free-time condition).",
+        "    const N_BC_ENDPOINT: usize;",
+        "    /// Number of Lie brackets [g_i, g_j], i < j, of the control fields.",
+        "    const N_BRACKETS: usize;",
+        "    /// A faithful matrix representation of the basis, `(k, E)` with the `n` basis",
+        "    /// matrices `k x k` one after the other, row-major (`None` when the model declares",
+        "    /// its algebra by structure constants only).",
+        "    const REPRESENTATION: Option<(usize, &'static [f64])>;",
     ]
     for sig in sigs:
         first = sig["doc"].strip().splitlines()[0]
@@ -441,8 +461,9 @@ def trait_text(sigs):
     return "\n".join(lines)
 
 
-def impl_text(type_name, fns):
-    """`impl super::Model for <type_name>` forwarding to the module's functions."""
+def impl_text(type_name, fns, representation):
+    """`impl super::Model for <type_name>` forwarding to the module's functions;
+    `representation` is the Rust expression of its `REPRESENTATION` constant."""
     lines = [
         "#[allow(clippy::too_many_arguments)]",
         "impl super::Model for " + type_name + " {",
@@ -458,6 +479,15 @@ def impl_text(type_name, fns):
         "    const CONSTRAINT_PARAMS: &'static [ParamMeta] = &CONSTRAINT_PARAMS;",
         "    const INERTIA_INVERSE_SLOTS: &'static [(usize, usize, usize)] = &INERTIA_INVERSE_SLOTS;",
         "    const BASIS_NAMES: &'static [&'static str] = &BASIS_NAMES;",
+        "    const TITLE: &'static str = MODEL_TITLE;",
+        "    const OMEGA: core::ops::Range<usize> = OMEGA;",
+        "    const XI: core::ops::Range<usize> = XI;",
+        "    const XIDOT: core::ops::Range<usize> = XIDOT;",
+        "    const KAPPA: core::ops::Range<usize> = KAPPA;",
+        "    const N_DESIRED: usize = N_DESIRED;",
+        "    const N_BC_ENDPOINT: usize = N_BC_ENDPOINT;",
+        "    const N_BRACKETS: usize = N_BRACKETS;",
+        f"    const REPRESENTATION: Option<(usize, &'static [f64])> = {representation};",
     ]
     for fn in fns:
         call = []

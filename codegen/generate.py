@@ -491,6 +491,9 @@ def metadata(M):
         parts.append(f"/// A faithful matrix representation of the basis ({k} x {k} matrices), for\n"
                      f"/// the reconstruction g' = g hat(Omega).\n"
                      f"pub const REPRESENTATION: [[[f64; {k}]; {k}]; {n}] = [\n    {mats},\n];")
+        parts.append(f"/// [`REPRESENTATION`] flat: the basis matrices one after the other, row-major.\n"
+                     f"pub const REPRESENTATION_FLAT: [f64; {n * k * k}] = "
+                     f"[{', '.join(repr(float(m[r, c])) for m in M.algebra.matrices for r in range(k) for c in range(k))}];")
     parts += [
         f"/// Number of desired-path inputs w = [Omega_d, Omega_d'].\n"
         f"pub const N_DESIRED: usize = {2 * n};",
@@ -515,7 +518,9 @@ def module_text(M, fns, h):
     tn = type_name(M.NAME)
     parts.append(f"/// The `{M.NAME}` model as a type, for code generic over [`super::Model`].\n"
                  f"#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]\npub struct {tn};")
-    parts.append(impl_text(tn, fns))
+    rep = ("None" if M.algebra.matrices is None
+           else f"Some(({M.algebra.matrices[0].rows}, &REPRESENTATION_FLAT))")
+    parts.append(impl_text(tn, fns, rep))
     return "\n\n".join(parts) + "\n"
 
 
@@ -630,6 +635,23 @@ def index_text(names, h, out):
     lines.append("/// The shipped models, by name (`codegen/models/*.py`).")
     lines.append(f"pub const MODEL_NAMES: [&str; {len(names)}] = "
                  f"[{', '.join(rust_str(n) for n in names)}];")
+    arms = "\n".join(f"            {rust_str(n)} => {{\n                type $M = $crate::model::{n}::"
+                     f"{type_name(n)};\n                $body\n            }}" for n in names)
+    # (textual scope: `#[macro_export]` on an included macro cannot be named by path)
+    lines += [
+        "/// `with_model!(name, M => body, _ => other)`: evaluate `body` with the type `M` set to",
+        "/// the generated model named `name` (a `&str`: one of [`MODEL_NAMES`]), or `other` for",
+        "/// any other name. The one place where a model name becomes a type (re-exported as",
+        "/// `crate::model::with_model`).",
+        "macro_rules! with_model {",
+        "    ($name:expr, $M:ident => $body:expr, _ => $other:expr) => {",
+        "        match $name {",
+        arms,
+        "            _ => $other,",
+        "        }",
+        "    };",
+        "}",
+    ]
     return "\n".join(lines) + "\n"
 
 

@@ -30,6 +30,8 @@
 use std::path::Path;
 use std::time::Instant;
 
+pub mod lie;
+
 use crate::config::{self, ConfigError};
 use crate::model::generated::{DIM, KAPPA, OMEGA, XI, XIDOT};
 use crate::report::{
@@ -109,7 +111,12 @@ pub fn trajectory_table(sol: &SuslovSolution, points: usize) -> TrajectoryTable 
 }
 
 fn stage_summaries(sol: &SuslovSolution) -> Vec<StageSummary> {
-    sol.stages
+    stage_summaries_of(&sol.stages)
+}
+
+/// The summary rows of homotopy stages (any model).
+fn stage_summaries_of(stages: &[solve::StageReport]) -> Vec<StageSummary> {
+    stages
         .iter()
         .map(|s| StageSummary {
             name: s.name.to_string(),
@@ -414,7 +421,14 @@ pub fn run_solve(
     out: &Path,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Summary, AppError> {
-    let (loaded, text) = config::load_with_text(config_path)?;
+    let (loaded, text) = match config::load_any(config_path)? {
+        (config::Loaded::So3(loaded), text) => (loaded, text),
+        (config::Loaded::Other(file), text) => {
+            return crate::model::with_model!(file.model.as_str(), M => {
+                lie::run_model_solve::<M>(&file, &text, config_path, out, events)
+            }, _ => unreachable!("config::load_any returns generated model names only"))
+        }
+    };
     for w in &loaded.warnings {
         events(AppEvent::Warning(w));
     }

@@ -100,6 +100,8 @@ use crate::suslov::problem::{
 use crate::suslov::solve::{SolveOptions, StartStrategy};
 use crate::suslov::SuslovError;
 
+pub mod generic;
+
 /// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
 pub const DESIRED_START_REL_TOL: f64 = 1e-6;
 
@@ -173,6 +175,8 @@ pub use crate::echo::MAX_ECHO_CHARS;
 #[derive(Debug, Clone, Default, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ProblemFile {
+    /// The model: `"so3"` (default) here; files of other models are read by [`generic`].
+    pub model: Option<String>,
     /// Case name (labels the summary); default: the file stem.
     pub name: Option<String>,
     /// `[body]`.
@@ -854,8 +858,119 @@ pub fn from_toml_str(text: &str) -> Result<LoadedProblem, ConfigError> {
     parse(text, &DefaultName::Fixed("problem".into()), Path::new(""))
 }
 
+/// A problem file of any model: so(3) files as [`LoadedProblem`], the others parsed and
+/// waiting for their model's type ([`ModelFile::build`]).
+pub enum Loaded {
+    /// `model = "so3"` (or no `model` key).
+    So3(LoadedProblem),
+    /// Another generated model.
+    Other(ModelFile),
+}
+
+/// A parsed problem file of a model other than so(3) (see [`generic`]).
+pub struct ModelFile {
+    /// The model's name (one of `crate::model::MODEL_NAMES`).
+    pub model: String,
+    table: toml::Table,
+    default_name: DefaultName,
+    base_dir: std::path::PathBuf,
+    path: Option<std::path::PathBuf>,
+}
+
+impl ModelFile {
+    /// Check every field against model `M` (whose `NAME` must be [`ModelFile::model`]).
+    pub fn build<M: crate::model::Model>(
+        &self,
+    ) -> Result<generic::LoadedModelProblem<M>, ConfigError> {
+        debug_assert_eq!(M::NAME, self.model);
+        generic::build::<M>(&self.table, &self.default_name, &self.base_dir).map_err(
+            |e| match &self.path {
+                Some(path) => ConfigError::InFile {
+                    path: path.clone(),
+                    source: Box::new(e),
+                },
+                None => e,
+            },
+        )
+    }
+}
+
+/// Read a problem file of any model ([`load_with_text`] for so(3) files; other models are
+/// parsed here and checked by [`ModelFile::build`]), and the file's text.
+pub fn load_any(path: &Path) -> Result<(Loaded, String), ConfigError> {
+    let bytes = read_bounded(path, MAX_PROBLEM_FILE_BYTES).map_err(|e| match e {
+        ReadFailure::Io(source) => ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadFailure::File(problem) => ConfigError::File {
+            path: path.to_path_buf(),
+            problem,
+        },
+    })?;
+    let text = decode(bytes, true).map_err(|problem| ConfigError::File {
+        path: path.to_path_buf(),
+        problem,
+    })?;
+    let in_file = |e: ConfigError| ConfigError::InFile {
+        path: path.to_path_buf(),
+        source: Box::new(e),
+    };
+    let model = model_key(&text).map_err(in_file)?;
+    match model {
+        None => load_with_text(path).map(|(l, t)| (Loaded::So3(l), t)),
+        Some(model) => {
+            let table: toml::Table = toml::from_str(text.strip_prefix(BOM).unwrap_or(&text))
+                .map_err(|e| {
+                    in_file(ConfigError::Toml {
+                        field: None,
+                        message: clip_toml_message(e.to_string().trim_end()),
+                    })
+                })?;
+            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
+            Ok((
+                Loaded::Other(ModelFile {
+                    model,
+                    table,
+                    default_name: match stem {
+                        Some(stem) => DefaultName::FileStem(stem),
+                        None => DefaultName::Fixed("problem".into()),
+                    },
+                    base_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
+                    path: Some(path.to_path_buf()),
+                }),
+                text,
+            ))
+        }
+    }
+}
+
+/// The file's `model` key: `None` for so(3) (absent or `"so3"`), the name of another
+/// generated model, or an error naming the models there are.
+fn model_key(text: &str) -> Result<Option<String>, ConfigError> {
+    let text = text.strip_prefix(BOM).unwrap_or(text);
+    let Ok(table) = toml::from_str::<toml::Table>(text) else {
+        return Ok(None); // the so(3) parser reports TOML errors with their field
+    };
+    match table.get("model") {
+        None => Ok(None),
+        Some(toml::Value::String(m)) if m == "so3" => Ok(None),
+        Some(toml::Value::String(m)) if crate::model::MODEL_NAMES.contains(&m.as_str()) => {
+            Ok(Some(m.clone()))
+        }
+        Some(other) => Err(ConfigError::Invalid {
+            field: "model".into(),
+            message: format!(
+                "{}: not a model; use one of {} (the files codegen/models/<name>.py)",
+                clip(&other.to_string()),
+                crate::model::MODEL_NAMES.join(", ")
+            ),
+        }),
+    }
+}
+
 /// Where the case name comes from when the file has no `name`.
-enum DefaultName {
+pub(crate) enum DefaultName {
     /// The problem file's name without extension (checked like a given name).
     FileStem(String),
     /// A name given by the caller.
@@ -1969,7 +2084,7 @@ impl ProblemFile {
 
     /// `[solver]`, checked against the caps and ranges above; `beta` and `gamma` are the
     /// cost weights.
-    fn solve_options(&self, beta: f64, gamma: f64) -> Result<SolveOptions, ConfigError> {
+    pub(crate) fn solve_options(&self, beta: f64, gamma: f64) -> Result<SolveOptions, ConfigError> {
         let mut o = SolveOptions::default();
         let Some(s) = &self.solver else {
             return Ok(o);

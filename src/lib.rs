@@ -77,6 +77,7 @@ pub mod config;
 pub mod continuation;
 pub mod echo;
 pub mod ivp;
+pub mod lie;
 pub mod model;
 pub mod ocp;
 pub mod reconstruct;

@@ -64,6 +64,7 @@ impl ParamMeta {
 }
 
 include!(concat!(env!("OUT_DIR"), "/models.rs"));
+pub(crate) use with_model;
 
 /// Why the derived constants of a parameter vector could not be filled.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -128,3 +129,35 @@ pub fn fill_derived<M: Model>(p: &mut [f64]) -> Result<(), DerivedError> {
 /// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
 /// solves.
 pub use so3 as generated;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn with_model_maps_every_name_to_its_type_and_nothing_else() {
+        for name in MODEL_NAMES {
+            let (got, dim) = with_model!(name, M => (M::NAME, M::DIM), _ => ("", 0));
+            assert_eq!(got, name);
+            assert!(dim >= 1);
+        }
+        assert_eq!(
+            with_model!("no-such-model", M => M::NAME, _ => "none"),
+            "none"
+        );
+        // The generic layout: four blocks of DIM in the order Omega, xi, xi', kappa.
+        for name in MODEL_NAMES {
+            with_model!(name, M => {
+                assert_eq!(M::OMEGA, 0..M::DIM);
+                assert_eq!(M::XI, M::DIM..2 * M::DIM);
+                assert_eq!(M::XIDOT, 2 * M::DIM..3 * M::DIM);
+                assert_eq!(M::KAPPA, 3 * M::DIM..4 * M::DIM);
+                assert_eq!(M::N_STATE, 4 * M::DIM);
+                assert_eq!(M::N_DESIRED, 2 * M::DIM);
+                if let Some((k, flat)) = M::REPRESENTATION {
+                    assert_eq!(flat.len(), M::DIM * k * k);
+                }
+            }, _ => unreachable!());
+        }
+    }
+}

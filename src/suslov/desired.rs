@@ -55,6 +55,7 @@ pub use num_dual::DualNum;
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
 use super::problem::ENERGY_REL_TOL;
 use super::SuslovError;
+use crate::lie::path::Sampled;
 
 /// Scalars the paths are evaluated on: `f64` and the `num-dual` dual numbers over `f64`.
 pub trait Scalar: DualNum<Primitive = f64> + Copy {}
@@ -365,131 +366,36 @@ impl PathEval for ProjectedSegment {
 /// Written generically, so [`DesiredPath::jet`] gives its exact derivatives (the third is
 /// piecewise constant, discontinuous at the knots). Wrap it in [`Projected`] to put it on an
 /// energy ellipsoid.
+///
+/// This is [`crate::lie::path::Sampled`] with `n = 3` (same numbers, bit for bit).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampledPath {
-    knots: Vec<f64>,
-    /// Per interval and component: `[a, b, c, d]` of `a + b s + c s² + d s³`, `s = t − t_k`.
-    coeffs: Vec<[[f64; 4]; 3]>,
-    /// Value and slope at the last knot (linear extension to the right).
-    end: ([f64; 3], [f64; 3]),
+    spline: Sampled,
 }
 
 impl SampledPath {
     /// The spline through `values[k]` at `times[k]`; needs at least 2 samples, finite values
-    /// and strictly increasing times.
+    /// and strictly increasing times (errors: [`SuslovError::InvalidInput`] with the message
+    /// of the [`PathError`](crate::lie::path::PathError)).
     pub fn new(times: &[f64], values: &[[f64; 3]]) -> Result<Self, SuslovError> {
-        let invalid = |what: String| Err(SuslovError::InvalidInput { what });
-        if times.len() != values.len() {
-            return invalid(format!("{} times but {} values", times.len(), values.len()));
-        }
-        if times.len() < 2 {
-            return invalid(format!(
-                "a sampled path needs at least 2 samples, got {}",
-                times.len()
-            ));
-        }
-        for (k, (t, v)) in times.iter().zip(values).enumerate() {
-            if !t.is_finite() || v.iter().any(|x| !x.is_finite()) {
-                return invalid(format!("sample {k} (t = {t}, value = {v:?}) is not finite"));
-            }
-            if k > 0 && *t <= times[k - 1] {
-                return invalid(format!(
-                    "times must increase strictly: sample {k} has t = {t} after t = {}",
-                    times[k - 1]
-                ));
-            }
-        }
-        let n = times.len() - 1; // intervals
-        let h: Vec<f64> = times.windows(2).map(|w| w[1] - w[0]).collect();
-        let mut coeffs = vec![[[0.0; 4]; 3]; n];
-        let mut end = ([0.0; 3], [0.0; 3]);
-        for c in 0..3 {
-            let y: Vec<f64> = values.iter().map(|v| v[c]).collect();
-            // Second derivatives m[0..=n], m[0] = m[n] = 0 (Thomas algorithm on 1..n-1).
-            let mut m = vec![0.0; n + 1];
-            if n >= 2 {
-                let mut diag = vec![0.0; n + 1];
-                let mut rhs = vec![0.0; n + 1];
-                for i in 1..n {
-                    diag[i] = 2.0 * (h[i - 1] + h[i]);
-                    rhs[i] = 6.0 * ((y[i + 1] - y[i]) / h[i] - (y[i] - y[i - 1]) / h[i - 1]);
-                }
-                for i in 2..n {
-                    let w = h[i - 1] / diag[i - 1];
-                    diag[i] -= w * h[i - 1];
-                    rhs[i] -= w * rhs[i - 1];
-                }
-                m[n - 1] = rhs[n - 1] / diag[n - 1];
-                for i in (1..n - 1).rev() {
-                    m[i] = (rhs[i] - h[i] * m[i + 1]) / diag[i];
-                }
-            }
-            for i in 0..n {
-                coeffs[i][c] = [
-                    y[i],
-                    (y[i + 1] - y[i]) / h[i] - h[i] * (2.0 * m[i] + m[i + 1]) / 6.0,
-                    m[i] / 2.0,
-                    (m[i + 1] - m[i]) / (6.0 * h[i]),
-                ];
-            }
-            let [_, b, cc, d] = coeffs[n - 1][c];
-            let hn = h[n - 1];
-            end.0[c] = y[n];
-            end.1[c] = b + 2.0 * cc * hn + 3.0 * d * hn * hn;
-        }
-        // Differences of huge values, or samples very close in time, overflow f64.
-        let bad = coeffs
-            .iter()
-            .position(|c| c.iter().flatten().any(|x| !x.is_finite()))
-            .or_else(|| (end.0.iter().chain(&end.1).any(|x| !x.is_finite())).then_some(n - 1));
-        if let Some(k) = bad {
-            return invalid(format!(
-                "the cubic spline through the samples overflows f64 between sample {k} (t = \
-                 {:e}) and sample {} (t = {:e}): the values are too large or too close in \
-                 time; rescale them (only their directions matter after the projection) or \
-                 space them further apart",
-                times[k],
-                k + 1,
-                times[k + 1]
-            ));
-        }
-        Ok(Self {
-            knots: times.to_vec(),
-            coeffs,
-            end,
-        })
+        Sampled::from_rows(times, values)
+            .map(|spline| Self { spline })
+            .map_err(|e| SuslovError::InvalidInput {
+                what: e.to_string(),
+            })
     }
 
     /// The sample times `t_0 < … < t_n`.
     pub fn times(&self) -> &[f64] {
-        &self.knots
+        self.spline.times()
     }
 }
 
 impl PathEval for SampledPath {
     fn eval<D: Scalar>(&self, t: D) -> [D; 3] {
-        let x = t.re();
-        let last = self.knots[self.knots.len() - 1];
-        if x > last {
-            let s = t - last;
-            return [0, 1, 2].map(|c| s * self.end.1[c] + self.end.0[c]);
-        }
-        // Interval k with t_k <= x < t_{k+1} (the first one left of t_0: linear there, m_0 = 0).
-        let k = self
-            .knots
-            .partition_point(|&tk| tk <= x)
-            .saturating_sub(1)
-            .min(self.coeffs.len() - 1);
-        let s = t - self.knots[k];
-        let left = x < self.knots[0];
-        [0, 1, 2].map(|c| {
-            let [a, b, cc, d] = self.coeffs[k][c];
-            if left {
-                s * b + a
-            } else {
-                ((s * d + cc) * s + b) * s + a
-            }
-        })
+        let mut out = [D::from(0.0); 3];
+        self.spline.eval_with(t, |c, x| out[c] = x);
+        out
     }
 }
 

@@ -54,14 +54,48 @@ impl Inertia {
     }
 
     /// `⟨v, I v⟩` for a generic (possibly dual) vector.
-    pub(crate) fn quadratic_form<D: Scalar>(&self, v: &[D; 3]) -> D {
+    pub(crate) fn quadratic_form<D: Scalar>(&self, v: &[D]) -> D {
         v[0] * v[0] * self.diag[0] + v[1] * v[1] * self.diag[1] + v[2] * v[2] * self.diag[2]
     }
 }
 
 /// `x` is a finite `f64` above the subnormal range (full precision).
-fn is_normal_positive(x: f64) -> bool {
+pub(crate) fn is_normal_positive(x: f64) -> bool {
     x.is_finite() && x >= f64::MIN_POSITIVE
+}
+
+/// The radial projection `v ← v · sqrt(level / q(v))` in place, for any positive definite
+/// quadratic form `q` (here the diagonal [`Inertia`]; in [`crate::lie::path::LevelSet`] a
+/// full matrix) and any [`Scalar`].
+///
+/// When `q(v)` or `level / q(v)` is not a normal `f64` (a huge or tiny `v`), `v` is first
+/// divided by its largest `|v_i|` at the point (a constant, so dual-number derivatives stay
+/// exact): the projection only depends on the ray. No other checks: a zero vector gives
+/// non-finite output.
+pub(crate) fn project_radially_in_place<D: Scalar>(
+    level: f64,
+    v: &mut [D],
+    quadratic: impl Fn(&[D]) -> D,
+) {
+    let q = quadratic(v);
+    let m = v.iter().map(|x| x.re().abs()).fold(0.0, f64::max);
+    if !(is_normal_positive(q.re()) && is_normal_positive(level / q.re()))
+        && m > 0.0
+        && m.is_finite()
+    {
+        for x in v.iter_mut() {
+            *x /= m;
+        }
+        let scale = quadratic(v).sqrt().recip() * level.sqrt();
+        for x in v.iter_mut() {
+            *x *= scale;
+        }
+        return;
+    }
+    let scale = (q.recip() * level).sqrt();
+    for x in v.iter_mut() {
+        *x *= scale;
+    }
 }
 
 /// Kinetic energy `T = ½⟨IΩ, Ω⟩`.
@@ -153,19 +187,9 @@ impl EnergyEllipsoid {
     /// [`EnergyEllipsoid::project`] when `⟨v, Iv⟩` over- or underflows (by the largest
     /// `|v_i|` at the point, a constant, so the derivatives stay exact). No other checks: a
     /// zero vector gives non-finite output.
-    pub(crate) fn project_generic<D: Scalar>(&self, v: [D; 3]) -> [D; 3] {
-        let q = self.inertia.quadratic_form(&v);
-        let m = v.iter().map(|x| x.re().abs()).fold(0.0, f64::max);
-        if !(is_normal_positive(q.re()) && is_normal_positive(self.level / q.re()))
-            && m > 0.0
-            && m.is_finite()
-        {
-            let u = [v[0] / m, v[1] / m, v[2] / m];
-            let scale = self.inertia.quadratic_form(&u).sqrt().recip() * self.level.sqrt();
-            return [u[0] * scale, u[1] * scale, u[2] * scale];
-        }
-        let scale = (q.recip() * self.level).sqrt();
-        [v[0] * scale, v[1] * scale, v[2] * scale]
+    pub(crate) fn project_generic<D: Scalar>(&self, mut v: [D; 3]) -> [D; 3] {
+        project_radially_in_place(self.level, &mut v, |u| self.inertia.quadratic_form(u));
+        v
     }
 
     /// Checks that a boundary value `v` (named e.g. `"Omega_b"`) lies on `E` to relative

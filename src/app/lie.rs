@@ -1,0 +1,310 @@
+//! `suslov solve` for a problem file of a model other than so(3) (`model = "se2"`, …): solve
+//! with the generic layer ([`crate::lie`]), verify, reconstruct the group motion, and write
+//!
+//! ```text
+//! DIR/problem.toml          a copy of the input
+//! DIR/trajectory.csv        t, the model's state names (Ω, ξ, ξ̇, κ), Ω_d on a uniform grid
+//! DIR/motion.csv            t, g(t) row-major (ġ = g Ω̂, g(a) = identity), when the model
+//!                           has a matrix representation; for se(2) also x, y, theta
+//! DIR/summary.json          one case, last
+//! ```
+//!
+//! A stage that stops writes `trajectory.partial.csv`; a solution that fails its checks
+//! writes `trajectory.unverified.csv` (no motion), as for so(3).
+
+use std::path::Path;
+use std::time::Instant;
+
+use crate::config::{generic::LoadedModelProblem, ModelFile};
+use crate::lie::{self, LieSolution, LieSolveError};
+use crate::model::Model;
+use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
+use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
+use crate::suslov::verify::Verdict;
+
+use super::{finish, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
+
+/// Every file a case of this kind may write.
+fn files() -> Vec<std::path::PathBuf> {
+    [
+        "trajectory.csv",
+        "trajectory.unverified.csv",
+        "trajectory.partial.csv",
+        "motion.csv",
+    ]
+    .iter()
+    .map(Into::into)
+    .collect()
+}
+
+fn csv_number(s: &mut String, x: f64) {
+    use std::fmt::Write;
+    let _ = write!(s, "{x:e}");
+}
+
+/// `t, <state names>, omega_d1..n` on `points` uniform times of `[a, b]`.
+fn trajectory_csv<M: Model>(sol: &LieSolution<M>, points: usize) -> String {
+    let n = M::DIM;
+    let mut header = vec!["t".to_string()];
+    header.extend(M::STATE_NAMES.iter().map(|s| s.to_string()));
+    header.extend((1..=n).map(|i| format!("omega_d{i}")));
+    let mut s = header.join(",");
+    s.push('\n');
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    let mut y = vec![0.0; M::N_STATE];
+    let mut jet = vec![0.0; 4 * n];
+    for k in 0..points {
+        let t = if k + 1 == points {
+            b
+        } else {
+            a + (b - a) * k as f64 / (points - 1) as f64
+        };
+        sol.state_into(t, &mut y);
+        sol.problem.desired.jet_into(t, &mut jet);
+        csv_number(&mut s, t);
+        for v in y.iter().chain(&jet[..n]) {
+            s.push(',');
+            csv_number(&mut s, *v);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// `t, g11, g12, …` (and for a 3×3 representation of se(2): `x, y, theta`), with the
+/// reconstruction's step-doubling error estimate.
+fn motion_csv<M: Model>(
+    sol: &LieSolution<M>,
+    points: usize,
+) -> Result<Option<(String, f64)>, String> {
+    let Some((k, flat)) = M::REPRESENTATION else {
+        return Ok(None);
+    };
+    let rep = Representation::new(M::DIM, k, flat.to_vec()).map_err(|e| e.to_string())?;
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    let times: Vec<f64> = (0..points)
+        .map(|i| {
+            if i + 1 == points {
+                b
+            } else {
+                a + (b - a) * i as f64 / (points - 1) as f64
+            }
+        })
+        .collect();
+    let mut identity = vec![0.0; k * k];
+    for i in 0..k {
+        identity[i * k + i] = 1.0;
+    }
+    let mut y = vec![0.0; M::N_STATE];
+    let omega = |t: f64, w: &mut [f64]| {
+        sol.state_into(t.clamp(a, b), &mut y);
+        w.copy_from_slice(&y[M::OMEGA]);
+    };
+    let opts = ReconstructOptions {
+        step: StepSize::MaxStep(((b - a) / 4000.0).min(0.01)),
+        ..Default::default()
+    };
+    let rec = reconstruct(&rep, &identity, &times, omega, &opts).map_err(|e| e.to_string())?;
+    let planar = M::NAME == "se2";
+    let mut header = vec!["t".to_string()];
+    for r in 1..=k {
+        for c in 1..=k {
+            header.push(format!("g{r}{c}"));
+        }
+    }
+    if planar {
+        header.extend(["x", "y", "theta"].map(String::from));
+    }
+    let mut s = header.join(",");
+    s.push('\n');
+    let mut theta_prev: Option<f64> = None;
+    for (i, t) in times.iter().enumerate() {
+        let g = rec.at(i);
+        csv_number(&mut s, *t);
+        for v in g {
+            s.push(',');
+            csv_number(&mut s, *v);
+        }
+        if planar {
+            // g = [[cos θ, −sin θ, x], [sin θ, cos θ, y], [0, 0, 1]]; θ unwrapped.
+            let mut theta = g[3].atan2(g[0]);
+            if let Some(prev) = theta_prev {
+                let turns = ((prev - theta) / std::f64::consts::TAU).round();
+                theta += turns * std::f64::consts::TAU;
+            }
+            theta_prev = Some(theta);
+            for v in [g[2], g[5], theta] {
+                s.push(',');
+                csv_number(&mut s, v);
+            }
+        }
+        s.push('\n');
+    }
+    Ok(Some((s, rec.error_estimate)))
+}
+
+fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) {
+    let (d, verification) = lie::verify_solution(sol);
+    let verified = verification.passed();
+    let status = match verification.verdict() {
+        Verdict::Verified => CaseStatus::Converged,
+        Verdict::Unverified { reason } => CaseStatus::Unverified(reason),
+    };
+    let eta = M::WEIGHTS
+        .iter()
+        .find(|w| w.role == crate::model::HomotopyRole::Smoothing)
+        .map_or(f64::NAN, |w| sol.problem.params()[w.index]);
+    let mut c = CaseSummary {
+        name: name.to_string(),
+        eta,
+        terminal_time: d.terminal_time,
+        cost: d.cost,
+        max_abs_constraint: d.max_abs_constraint,
+        xi_norm_min: d.xi_norm_min,
+        xi_norm_max: d.xi_norm_max,
+        energy_drift: d.energy_drift,
+        omega_b_error: d.omega_b_error,
+        max_residual: d.max_residual,
+        mesh_nodes: sol.bvp.num_nodes(),
+        continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
+        newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
+        status: status.to_string(),
+        verification: Some((&verification).into()),
+        stages: stage_summaries_of(&sol.stages),
+        reintegration_max_diff: verification
+            .check("reintegration")
+            .map(|c| c.value * d.omega_norm_max),
+        ..Default::default()
+    };
+    c.extra.insert("model".into(), serde_json::json!(M::NAME));
+    let params: serde_json::Map<String, serde_json::Value> = Problem::<M>::user_metas()
+        .map(|m| {
+            (
+                m.name.to_string(),
+                serde_json::json!(sol.problem.params()[m.index]),
+            )
+        })
+        .collect();
+    c.extra
+        .insert("parameters".into(), serde_json::Value::Object(params));
+    c.extra
+        .insert("omega_a".into(), serde_json::json!(sol.problem.omega_a));
+    c.extra
+        .insert("omega_b".into(), serde_json::json!(sol.problem.omega_b));
+    c.extra
+        .insert("bc_residual".into(), serde_json::json!(d.bc_residual));
+    c.extra.insert(
+        "start".into(),
+        serde_json::json!({
+            "omega_p": sol.start.omega_p,
+            "paper_case": sol.start.case,
+            "b_p": sol.start.b_p,
+            "beta_m": sol.start.beta_m,
+        }),
+    );
+    (c, verified)
+}
+
+use crate::lie::Problem;
+
+/// `suslov solve` for a [`ModelFile`] of model `M` (see the module docs).
+pub fn run_model_solve<M: Model>(
+    file: &ModelFile,
+    text: &str,
+    config_path: &Path,
+    out: &Path,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<report::Summary, AppError> {
+    let LoadedModelProblem {
+        name,
+        problem,
+        options,
+    } = file.build::<M>()?;
+    let mut dir = OutputDir::open(out)?;
+    dir.check_free(
+        files()
+            .into_iter()
+            .chain(["problem.toml".into(), report::SUMMARY_FILE.into()]),
+    )?;
+    let copy = dir.write("problem.toml", text.as_bytes())?;
+    events(AppEvent::Wrote(&copy));
+    events(AppEvent::CaseStarted { name: &name });
+    let clock = Instant::now();
+    let result = lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e)));
+    let mut write = |dir: &mut OutputDir, file: &str, text: &str| -> Result<(), AppError> {
+        let path = dir.write(file, text.as_bytes())?;
+        events(AppEvent::Wrote(&path));
+        Ok(())
+    };
+    let mut case = match result {
+        Ok(sol) => {
+            let (mut c, verified) = summarize(&name, &sol);
+            let stem = if verified {
+                "trajectory.csv"
+            } else {
+                "trajectory.unverified.csv"
+            };
+            write(&mut dir, stem, &trajectory_csv(&sol, OUTPUT_POINTS))?;
+            if verified {
+                match motion_csv(&sol, OUTPUT_POINTS) {
+                    Ok(Some((csv, err))) => {
+                        write(&mut dir, "motion.csv", &csv)?;
+                        c.extra
+                            .insert("motion_error_estimate".into(), serde_json::json!(err));
+                    }
+                    Ok(None) => {}
+                    Err(e) => {
+                        c.extra.insert("motion_error".into(), serde_json::json!(e));
+                    }
+                }
+            }
+            c
+        }
+        Err(LieSolveError::StageFailed {
+            stage,
+            parameter,
+            reached,
+            target,
+            reason,
+            partial,
+        }) => {
+            let (mut c, _) = summarize(&name, &partial);
+            let at = if reached.is_finite() && target.is_finite() {
+                format!(" at {parameter} = {reached} (target {target})")
+            } else {
+                String::new()
+            };
+            c.status =
+                CaseStatus::Partial(format!("stage '{stage}' stopped{at}: {reason}")).to_string();
+            write(
+                &mut dir,
+                "trajectory.partial.csv",
+                &trajectory_csv(&partial, OUTPUT_POINTS),
+            )?;
+            c
+        }
+        Err(e) => CaseSummary {
+            name: name.clone(),
+            eta: f64::NAN,
+            terminal_time: f64::NAN,
+            cost: f64::NAN,
+            max_abs_constraint: f64::NAN,
+            xi_norm_min: f64::NAN,
+            xi_norm_max: f64::NAN,
+            energy_drift: f64::NAN,
+            omega_b_error: f64::NAN,
+            max_residual: f64::NAN,
+            status: CaseStatus::Failed(e.to_string()).to_string(),
+            ..Default::default()
+        },
+    };
+    case.wall_seconds = clock.elapsed().as_secs_f64();
+    case.extra.insert(
+        "problem_file".into(),
+        serde_json::json!(config_path.display().to_string()),
+    );
+    events(AppEvent::CaseFinished(&case));
+    let summary = report::Summary { cases: vec![case] };
+    finish(dir, &summary, events)?;
+    Ok(summary)
+}

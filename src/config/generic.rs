@@ -1,0 +1,615 @@
+//! Problem files of the models other than `so3` (`model = "se2"`, `"so4"`, …): the same
+//! layout as an so(3) file, with every name taken from the generated model.
+//!
+//! ```toml
+//! model = "se2"                      # a generated model (codegen/models/<model>.py)
+//! name = "sleigh_turn"               # optional; default: the file name without extension
+//!
+//! [body]                             # the model's inertia parameters, by name
+//! m = 1.0                            # se2: m, Ic, c1, c2;  so4: J1, J2, J3, J4
+//! Ic = 0.5
+//! c1 = 0.3
+//! c2 = 0.1
+//!
+//! [boundary]
+//! t0 = 0.0                           # optional, default 0
+//! omega_a = [1.0, 0.5, 0.0]          # Ω(t0): one entry per basis element (the model's DIM)
+//! omega_b = [0.8, 0.2, 0.5]          # Ω(b) on Ω_a's energy level set, or "desired_end"
+//! terminal_time = { fixed = 4.0 }    # or { free = true, guess = 4.0 }
+//!
+//! [cost]                             # the model's weights, by name (so3's: alpha, beta, gamma,
+//! alpha = 1.0                        # eta, delta); a smoothing or time weight defaults to 0
+//! beta = 0.1
+//! gamma = 1.0
+//!
+//! [desired]                          # Ω_d(t): "segment" (default), "constant" or "samples"
+//! kind = "segment"                   # from/to (default omega_a/omega_b), interval
+//!
+//! [solver]                           # as for so3 (see crate::config)
+//! ```
+//!
+//! Every path is projected radially onto `Ω_a`'s energy level set `⟨Ω, 𝕀Ω⟩ = ⟨Ω_a, 𝕀Ω_a⟩` (𝕀
+//! the model's inertia, full matrix). `samples` reads a CSV with rows `t, Ω_1, …, Ω_n`.
+//! Unknown keys are errors that list the keys the model accepts.
+
+use std::path::Path;
+use std::sync::Arc;
+
+use crate::lie::path::{
+    projected_segment, Constant, LevelSet, Path as LiePath, Projected, Sampled,
+};
+use crate::lie::problem::{Problem, ProblemError};
+use crate::model::{HomotopyRole, Model};
+use crate::suslov::problem::{TerminalTime, ENERGY_REL_TOL};
+use crate::suslov::solve::SolveOptions;
+
+use super::{
+    clip, decode, read_bounded, ConfigError, DefaultName, ProblemFile, ReadFailure, SolverSection,
+    MAX_SAMPLES_FILE_BYTES,
+};
+
+/// A problem file of model `M`, checked.
+#[derive(Debug, Clone)]
+pub struct LoadedModelProblem<M: Model> {
+    /// Case name.
+    pub name: String,
+    /// The problem (validated).
+    pub problem: Problem<M>,
+    /// Solver options.
+    pub options: SolveOptions,
+}
+
+type Table = toml::Table;
+
+/// A desired path's end: its time (NaN for a constant) and value.
+type EndPoint = (f64, Vec<f64>);
+
+fn invalid(field: &str, message: impl Into<String>) -> ConfigError {
+    ConfigError::Invalid {
+        field: field.into(),
+        message: message.into(),
+    }
+}
+
+/// Every key of `table` (at `path`) must be one of `allowed`.
+fn only_keys(table: &Table, path: &str, allowed: &[&str]) -> Result<(), ConfigError> {
+    for key in table.keys() {
+        if !allowed.contains(&key.as_str()) {
+            let field = if path.is_empty() {
+                key.clone()
+            } else {
+                format!("{path}.{key}")
+            };
+            return Err(invalid(
+                &clip(&field),
+                format!("unknown key; this table accepts {}", allowed.join(", ")),
+            ));
+        }
+    }
+    Ok(())
+}
+
+fn number(field: &str, v: &toml::Value) -> Result<f64, ConfigError> {
+    let x = match v {
+        toml::Value::Float(x) => *x,
+        toml::Value::Integer(i) => *i as f64,
+        other => {
+            return Err(invalid(
+                field,
+                format!("expected a number, found a {}", other.type_str()),
+            ))
+        }
+    };
+    if !x.is_finite() {
+        return Err(ConfigError::NotFinite {
+            field: field.into(),
+            value: x,
+        });
+    }
+    Ok(x)
+}
+
+fn vector(
+    field: &str,
+    v: &toml::Value,
+    n: usize,
+    meaning: &'static str,
+) -> Result<Vec<f64>, ConfigError> {
+    let toml::Value::Array(items) = v else {
+        return Err(invalid(
+            field,
+            format!(
+                "expected an array of {n} numbers [{meaning}], found a {}",
+                v.type_str()
+            ),
+        ));
+    };
+    if items.len() != n {
+        return Err(ConfigError::Length {
+            field: field.into(),
+            found: items.len(),
+            expected: n,
+            meaning,
+        });
+    }
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, x)| number(&format!("{field}[{i}]"), x))
+        .collect()
+}
+
+fn table<'a>(root: &'a Table, key: &str, fix: &str) -> Result<&'a Table, ConfigError> {
+    match root.get(key) {
+        Some(toml::Value::Table(t)) => Ok(t),
+        Some(other) => Err(invalid(
+            key,
+            format!("expected a table [{key}], found a {}", other.type_str()),
+        )),
+        None => Err(ConfigError::Missing {
+            field: key.into(),
+            fix: fix.into(),
+        }),
+    }
+}
+
+/// A model's basis names joined, leaked once per model for the `'static` error text.
+fn basis_meaning<M: Model>() -> &'static str {
+    static CACHE: std::sync::OnceLock<std::sync::Mutex<Vec<(&'static str, &'static str)>>> =
+        std::sync::OnceLock::new();
+    let cache = CACHE.get_or_init(Default::default);
+    let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
+    if let Some((_, m)) = c.iter().find(|(n, _)| *n == M::NAME) {
+        return m;
+    }
+    let m: &'static str =
+        Box::leak(format!("components along {}", M::BASIS_NAMES.join(", ")).into_boxed_str());
+    c.push((M::NAME, m));
+    m
+}
+
+/// Read the samples CSV `t, Ω_1, …, Ω_n` (header optional, `#` comments).
+fn samples<M: Model>(path: &Path) -> Result<(Vec<f64>, Vec<Vec<f64>>), ConfigError> {
+    let bytes = read_bounded(path, MAX_SAMPLES_FILE_BYTES).map_err(|e| match e {
+        ReadFailure::Io(source) => ConfigError::Read {
+            path: path.to_path_buf(),
+            source,
+        },
+        ReadFailure::File(problem) => ConfigError::File {
+            path: path.to_path_buf(),
+            problem,
+        },
+    })?;
+    let text = decode(bytes, false).map_err(|problem| ConfigError::File {
+        path: path.to_path_buf(),
+        problem,
+    })?;
+    let (mut times, mut values) = (Vec::new(), Vec::new());
+    for (k, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('#') {
+            continue;
+        }
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        let parsed: Result<Vec<f64>, _> = cells.iter().map(|c| c.parse::<f64>()).collect();
+        let Ok(row) = parsed else {
+            if times.is_empty() && values.is_empty() {
+                continue; // a header line
+            }
+            return Err(invalid(
+                "desired.file",
+                format!("line {}: {:?} is not a row of numbers", k + 1, clip(line)),
+            ));
+        };
+        if row.len() != M::DIM + 1 {
+            return Err(invalid(
+                "desired.file",
+                format!(
+                    "line {}: {} columns; model {} needs {} (t, then one per basis element {})",
+                    k + 1,
+                    row.len(),
+                    M::NAME,
+                    M::DIM + 1,
+                    M::BASIS_NAMES.join(", ")
+                ),
+            ));
+        }
+        times.push(row[0]);
+        values.push(row[1..].to_vec());
+    }
+    Ok((times, values))
+}
+
+/// Build a problem of model `M` from the parsed file `root`.
+pub(crate) fn build<M: Model>(
+    root: &Table,
+    default_name: &DefaultName,
+    base_dir: &Path,
+) -> Result<LoadedModelProblem<M>, ConfigError> {
+    only_keys(
+        root,
+        "",
+        &[
+            "model", "name", "body", "boundary", "cost", "desired", "solver",
+        ],
+    )?;
+    // The case name: the so(3) file's rules (one printable line, capped).
+    let name_file = ProblemFile {
+        name: match root.get("name") {
+            Some(toml::Value::String(s)) => Some(s.clone()),
+            Some(other) => {
+                return Err(invalid(
+                    "name",
+                    format!("expected a string, found a {}", other.type_str()),
+                ))
+            }
+            None => None,
+        },
+        ..Default::default()
+    };
+    let name = name_file.case_name(default_name)?;
+    let n = M::DIM;
+    let meaning = basis_meaning::<M>();
+
+    // [body]: the inertia parameters.
+    let inertia_names: Vec<&str> = M::INERTIA_PARAMS.iter().map(|m| m.name).collect();
+    let body = table(
+        root,
+        "body",
+        &format!("add a [body] table with {}", inertia_names.join(", ")),
+    )?;
+    only_keys(body, "body", &inertia_names)?;
+    let mut user = vec![0.0; M::N_USER_PARAM];
+    for meta in M::INERTIA_PARAMS {
+        let field = format!("body.{}", meta.name);
+        let v = body.get(meta.name).ok_or_else(|| ConfigError::Missing {
+            field: field.clone(),
+            fix: format!("add {} = ... under [body] ({})", meta.name, meta.doc),
+        })?;
+        user[meta.index] = number(&field, v)?;
+        if !meta.admits(user[meta.index]) {
+            return Err(ConfigError::OutOfRange {
+                field,
+                value: user[meta.index].to_string(),
+                requirement: meta.doc.to_string(),
+            });
+        }
+    }
+
+    // [cost]: the weights.
+    let weight_names: Vec<&str> = M::WEIGHTS.iter().map(|m| m.name).collect();
+    let cost = table(
+        root,
+        "cost",
+        &format!("add a [cost] table with {}", weight_names.join(", ")),
+    )?;
+    only_keys(cost, "cost", &weight_names)?;
+    for meta in M::WEIGHTS {
+        let field = format!("cost.{}", meta.name);
+        let defaults_to_zero =
+            matches!(meta.role, HomotopyRole::Smoothing | HomotopyRole::Time) && meta.admits(0.0);
+        let v = match cost.get(meta.name) {
+            Some(v) => number(&field, v)?,
+            None if defaults_to_zero => 0.0,
+            None => {
+                return Err(ConfigError::Missing {
+                    field,
+                    fix: format!("add {} = ... under [cost] ({})", meta.name, meta.doc),
+                })
+            }
+        };
+        if !meta.admits(v) {
+            return Err(ConfigError::OutOfRange {
+                field,
+                value: v.to_string(),
+                requirement: meta.doc.to_string(),
+            });
+        }
+        user[meta.index] = v;
+    }
+    if !M::CONSTRAINT_PARAMS.is_empty() {
+        return Err(invalid(
+            "model",
+            ProblemError::ConstraintValue {
+                model: M::NAME,
+                names: M::CONSTRAINT_PARAMS
+                    .iter()
+                    .map(|m| m.name)
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            }
+            .to_string(),
+        ));
+    }
+    let mut p = vec![0.0; M::N_PARAM];
+    p[..M::N_USER_PARAM].copy_from_slice(&user);
+    crate::model::fill_derived::<M>(&mut p).map_err(|e| invalid("body", e.to_string()))?;
+    let mut inertia = vec![0.0; n * n];
+    M::inertia_matrix(&p, &mut inertia);
+
+    // [boundary]
+    let boundary = table(
+        root,
+        "boundary",
+        "add a [boundary] table with omega_a, omega_b and terminal_time",
+    )?;
+    only_keys(
+        boundary,
+        "boundary",
+        &["t0", "omega_a", "omega_b", "terminal_time"],
+    )?;
+    let t0 = boundary
+        .get("t0")
+        .map(|v| number("boundary.t0", v))
+        .transpose()?
+        .unwrap_or(0.0);
+    let omega_a = vector(
+        "boundary.omega_a",
+        boundary
+            .get("omega_a")
+            .ok_or_else(|| ConfigError::Missing {
+                field: "boundary.omega_a".into(),
+                fix: format!("add omega_a = [{meaning}] under [boundary] (the velocity at t0)"),
+            })?,
+        n,
+        meaning,
+    )?;
+    if omega_a.iter().all(|x| *x == 0.0) {
+        return Err(invalid(
+            "boundary.omega_a",
+            "is zero: omega_a fixes the kinetic energy, i.e. the level set every trajectory \
+             stays on; give a nonzero vector",
+        ));
+    }
+    let set = LevelSet::through(&inertia, n, &omega_a)
+        .map_err(|e| invalid("boundary.omega_a", e.to_string()))?;
+    let tt = match boundary.get("terminal_time") {
+        Some(toml::Value::Table(t)) => t,
+        Some(other) => {
+            return Err(ConfigError::TerminalTime {
+                field: "boundary.terminal_time".into(),
+                message: format!(
+                    "expected {{ fixed = b }} or {{ free = true, guess = b }}, found a {}",
+                    other.type_str()
+                ),
+            })
+        }
+        None => {
+            return Err(ConfigError::Missing {
+                field: "boundary.terminal_time".into(),
+                fix: "add terminal_time = { fixed = 10.0 } or terminal_time = { free = true, \
+                      guess = 10.0 } under [boundary]"
+                    .into(),
+            })
+        }
+    };
+    only_keys(tt, "boundary.terminal_time", &["fixed", "free", "guess"])?;
+
+    // [desired] (needed for the end point "desired_end" and the default guess).
+    let empty = Table::new();
+    let desired_t = match root.get("desired") {
+        Some(toml::Value::Table(t)) => t,
+        Some(other) => {
+            return Err(invalid(
+                "desired",
+                format!("expected a table [desired], found a {}", other.type_str()),
+            ))
+        }
+        None => &empty,
+    };
+    let kind = match desired_t.get("kind") {
+        None => "segment".to_string(),
+        Some(toml::Value::String(s)) => s.clone(),
+        Some(other) => {
+            return Err(invalid(
+                "desired.kind",
+                format!("expected a string, found a {}", other.type_str()),
+            ))
+        }
+    };
+    let omega_b_spec = boundary
+        .get("omega_b")
+        .ok_or_else(|| ConfigError::Missing {
+            field: "boundary.omega_b".into(),
+            fix: format!(
+                "add omega_b = [{meaning}] (on omega_a's energy level set) or omega_b = \
+             \"desired_end\" under [boundary]"
+            ),
+        })?;
+    let desired_end = matches!(omega_b_spec, toml::Value::String(s) if s == "desired_end");
+    if let toml::Value::String(s) = omega_b_spec {
+        if s != "desired_end" {
+            return Err(invalid(
+                "boundary.omega_b",
+                format!("{:?}: give a vector or \"desired_end\"", clip(s)),
+            ));
+        }
+    }
+    // The desired path (before projection) and its end time.
+    let (raw, end): (Option<Arc<dyn LiePath>>, Option<EndPoint>) = match kind.as_str() {
+        "constant" => {
+            only_keys(desired_t, "desired", &["kind", "value"])?;
+            let value = vector(
+                "desired.value",
+                desired_t.get("value").ok_or_else(|| ConfigError::Missing {
+                    field: "desired.value".into(),
+                    fix: format!("add value = [{meaning}] under [desired]"),
+                })?,
+                n,
+                meaning,
+            )?;
+            let c = Constant::new(value.clone())
+                .map_err(|e| invalid("desired.value", e.to_string()))?;
+            (Some(Arc::new(c)), Some((f64::NAN, value)))
+        }
+        "samples" => {
+            only_keys(desired_t, "desired", &["kind", "file"])?;
+            let Some(toml::Value::String(file)) = desired_t.get("file") else {
+                return Err(ConfigError::Missing {
+                    field: "desired.file".into(),
+                    fix: "add file = \"omega_d.csv\" under [desired] (rows t, Omega_1, ..., \
+                          Omega_n)"
+                        .into(),
+                });
+            };
+            let (times, values) = samples::<M>(&base_dir.join(file))?;
+            let s = Sampled::new(&times, &values)
+                .map_err(|e| invalid("desired.file", e.to_string()))?;
+            let last = (times[times.len() - 1], values[values.len() - 1].clone());
+            (Some(Arc::new(s)), Some(last))
+        }
+        "segment" => (None, None),
+        other => {
+            return Err(invalid(
+                "desired.kind",
+                format!(
+                    "unknown kind {:?} for model {}; use \"segment\", \"constant\" or \
+                     \"samples\"",
+                    clip(other),
+                    M::NAME
+                ),
+            ))
+        }
+    };
+    let omega_b = if desired_end {
+        match (&kind[..], &end) {
+            ("segment", _) => {
+                return Err(invalid(
+                    "boundary.omega_b",
+                    "\"desired_end\" needs a desired path with an end point (constant or \
+                     samples); for a segment give omega_b itself",
+                ))
+            }
+            (_, Some((_, v))) => set
+                .project(v)
+                .map_err(|e| invalid("boundary.omega_b", e.to_string()))?,
+            _ => unreachable!("constant and samples have an end point"),
+        }
+    } else {
+        vector("boundary.omega_b", omega_b_spec, n, meaning)?
+    };
+    let mismatch = set.relative_mismatch(&omega_b);
+    let on_level_set = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN
+    if !on_level_set {
+        let projection = set.project(&omega_b).unwrap_or_default();
+        return Err(invalid(
+            "boundary.omega_b",
+            format!(
+                "{omega_b:?} is off omega_a's energy level set <Omega, I Omega> = {:e} by \
+                 {mismatch:.3e} (relative; allowed {ENERGY_REL_TOL:e}): the constrained motion \
+                 conserves the kinetic energy, so no control reaches it. Its radial projection \
+                 onto the level set is {projection:?}: use that (or change omega_a)",
+                set.level()
+            ),
+        ));
+    }
+    let end_time = end.as_ref().map(|e| e.0).filter(|t| t.is_finite());
+    let terminal = {
+        let fixed = tt
+            .get("fixed")
+            .map(|v| number("boundary.terminal_time.fixed", v))
+            .transpose()?;
+        let free = match tt.get("free") {
+            None => false,
+            Some(toml::Value::Boolean(b)) => *b,
+            Some(other) => {
+                return Err(invalid(
+                    "boundary.terminal_time.free",
+                    format!("expected true or false, found a {}", other.type_str()),
+                ))
+            }
+        };
+        let guess = tt
+            .get("guess")
+            .map(|v| number("boundary.terminal_time.guess", v))
+            .transpose()?;
+        match (fixed, free) {
+            (Some(b), false) if guess.is_none() => TerminalTime::Fixed(b),
+            (None, true) => TerminalTime::Free {
+                guess: guess
+                    .or(end_time)
+                    .ok_or_else(|| ConfigError::TerminalTime {
+                        field: "boundary.terminal_time.guess".into(),
+                        message: "a free terminal time needs a guess (the desired path has no \
+                              end time to default to): add guess = ..."
+                            .into(),
+                    })?,
+            },
+            _ => {
+                return Err(ConfigError::TerminalTime {
+                    field: "boundary.terminal_time".into(),
+                    message: "give either { fixed = b } or { free = true, guess = b }".into(),
+                })
+            }
+        }
+    };
+    let b = terminal.initial();
+    if b.partial_cmp(&t0) != Some(std::cmp::Ordering::Greater) {
+        return Err(ConfigError::TerminalTime {
+            field: "boundary.terminal_time".into(),
+            message: format!("b = {b} must be greater than t0 = {t0}"),
+        });
+    }
+    let desired: Arc<dyn LiePath> = if let Some(inner) = raw {
+        Arc::new(Projected {
+            inner,
+            set: set.clone(),
+        })
+    } else {
+        only_keys(desired_t, "desired", &["kind", "from", "to", "interval"])?;
+        let from = desired_t
+            .get("from")
+            .map(|v| vector("desired.from", v, n, meaning))
+            .transpose()?
+            .unwrap_or_else(|| omega_a.clone());
+        let to = desired_t
+            .get("to")
+            .map(|v| vector("desired.to", v, n, meaning))
+            .transpose()?
+            .unwrap_or_else(|| omega_b.clone());
+        let interval = desired_t
+            .get("interval")
+            .map(|v| vector("desired.interval", v, 2, "start time, end time"))
+            .transpose()?
+            .unwrap_or_else(|| vec![t0, b]);
+        let from = set
+            .project(&from)
+            .map_err(|e| invalid("desired.from", e.to_string()))?;
+        let to_p = set
+            .project(&to)
+            .map_err(|e| invalid("desired.to", e.to_string()))?;
+        Arc::new(
+            projected_segment(&set, &from, &to_p, interval[0], interval[1], ENERGY_REL_TOL)
+                .map_err(|e| invalid("desired", e.to_string()))?,
+        )
+    };
+    // The so(3) file's solver section and its checks.
+    let solver: Option<SolverSection> = match root.get("solver") {
+        None => None,
+        Some(v) => Some(
+            v.clone()
+                .try_into()
+                .map_err(|e: toml::de::Error| invalid("solver", e.message().to_string()))?,
+        ),
+    };
+    let beta = M::WEIGHTS
+        .iter()
+        .find(|w| w.role == HomotopyRole::Beta)
+        .map_or(f64::NAN, |w| user[w.index]);
+    let gamma = M::WEIGHTS
+        .iter()
+        .find(|w| w.role == HomotopyRole::Tracking)
+        .map_or(0.0, |w| user[w.index]);
+    let options = ProblemFile {
+        solver,
+        ..Default::default()
+    }
+    .solve_options(beta, gamma)?;
+    let problem = Problem::<M>::new(&user, t0, omega_a, omega_b, terminal, desired)
+        .map_err(|e| invalid("boundary", e.to_string()))?;
+    Ok(LoadedModelProblem {
+        name,
+        problem,
+        options,
+    })
+}

@@ -1,0 +1,726 @@
+//! Solving a [`Problem`] of any model: the analytic singular start (paper section 5.1,
+//! generalised) and the staged homotopy (section 5.2), with the stages read from the model's
+//! [`HomotopyRole`]s instead of named weights.
+//!
+//! 1. **Start.** An admissible `Ω_p` on `[a, b_p]` (Properties 1–3: it joins `Ω_a` to `Ω_b`,
+//!    lies on the energy level set, and `ξ̃ = 𝕀Ω̇_p − ad*_{Ω_p} 𝕀Ω_p` never vanishes) gives
+//!    `y = [Ω_p, ξ_p, ξ̇_p, κ = 0]` by the generated `singular_control`; the BVP is solved with
+//!    the `Beta` weight at `β_m`, `Smoothing` and `Time` weights at 0, fixed `T = b_p − a`.
+//!    The choice of `Ω_p` and of the `Tracking` weights' start value follows the paper's three
+//!    cases exactly as the so(3) layer does ([`crate::suslov::solve`]):
+//!    - tracking weight `> 0` and the projected desired path admissible: `Ω_p` = the desired
+//!      path projected radially onto the level set; the tracking weight starts at its target
+//!      (case 3) when the desired path itself lies on the level set (within
+//!      [`ADMISSIBLE_ENERGY_TOL`]), else at 0 (case 2);
+//!    - tracking weight `> 0`, projected desired path not admissible: `Ω_p` = the projected
+//!      segment `Ω_a → Ω_b`, tracking from 0 (case 2);
+//!    - tracking weight 0: `Ω_p` = the projected segment, tracked with weight 1, continued to
+//!      0 (case 1).
+//! 2. **Tracking stage** (cases 1, 2), 3. **β stage** (`β_m → β`, geometric), 4. **smoothing
+//!    stage** (`0 → η`), 5. **time stage** (free terminal time: `T` becomes unknown; the
+//!    `Time` weight goes from `δ_c`, the generated `delta_start`, to its target), 6. **polish**
+//!    at the requested tolerance.
+//!
+//! The stage records, the options and the progress events are those of the so(3) layer
+//! ([`StageReport`], [`SolveOptions`], [`Event`]): they know no model.
+
+use std::sync::Arc;
+
+use crate::bvp::{self, Guess, Solution};
+use crate::continuation;
+use crate::model::{HomotopyRole, Model};
+use crate::suslov::problem::TerminalTime;
+use crate::suslov::solve::{
+    Event, SolveOptions, StageOutcome, StageReport, StartChoice, StartStrategy,
+    ADMISSIBLE_ENERGY_TOL,
+};
+
+use super::path::{projected_segment, Path, Projected};
+use super::problem::{with_buffer, LieBvp, Problem, ProblemError, SPAN};
+
+/// A solved problem of model `M`.
+#[derive(Clone)]
+pub struct LieSolution<M: Model> {
+    /// The problem, with the weights reached and the terminal time found (free `b`).
+    pub problem: Problem<M>,
+    /// The BVP solution on `s ∈ [0, 1]`.
+    pub bvp: Solution,
+    /// `T = b − a`.
+    pub t_span: f64,
+    /// The analytic start.
+    pub start: StartChoice,
+    /// The homotopy stages, in order.
+    pub stages: Vec<StageReport>,
+    /// The requested final tolerance, which the verification judges against.
+    pub tolerance: f64,
+}
+
+impl<M: Model> std::fmt::Debug for LieSolution<M> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LieSolution")
+            .field("problem", &self.problem)
+            .field("t_span", &self.t_span)
+            .field("start", &self.start)
+            .field("stages", &self.stages)
+            .field("tolerance", &self.tolerance)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<M: Model> LieSolution<M> {
+    /// `b`.
+    pub fn terminal_time(&self) -> f64 {
+        self.problem.t0 + self.t_span
+    }
+
+    /// `y(t) = [Ω, ξ, ξ̇, κ]` at physical time `t ∈ [a, b]` (`M::N_STATE` entries).
+    pub fn state_into(&self, t: f64, y: &mut [f64]) {
+        self.bvp.eval_into((t - self.problem.t0) / self.t_span, y);
+    }
+
+    /// `y(t)` as a vector.
+    pub fn state(&self, t: f64) -> Vec<f64> {
+        let mut y = vec![0.0; M::N_STATE];
+        self.state_into(t, &mut y);
+        y
+    }
+}
+
+/// Why [`solve`] failed.
+#[derive(Debug, thiserror::Error)]
+pub enum LieSolveError<M: Model> {
+    /// The problem is invalid.
+    #[error("invalid problem: {0}")]
+    Invalid(#[from] ProblemError),
+    /// The model's weights do not have the roles the homotopy needs.
+    #[error("model {model}: {what}")]
+    Roles {
+        /// The model.
+        model: &'static str,
+        /// What is missing.
+        what: String,
+    },
+    /// No admissible analytic start could be built.
+    #[error("cannot build the analytic start: {0}")]
+    Start(String),
+    /// A stage did not reach its target; `partial` holds the last converged point.
+    #[error("stage '{stage}' stopped at {parameter} = {reached} (target {target}): {reason}")]
+    StageFailed {
+        /// Stage name.
+        stage: &'static str,
+        /// Continued parameter name.
+        parameter: &'static str,
+        /// Last converged value.
+        reached: f64,
+        /// Target value.
+        target: f64,
+        /// Why.
+        reason: String,
+        /// The last converged solution.
+        partial: Box<LieSolution<M>>,
+    },
+    /// Invalid input reached the BVP solver (a bug in this layer).
+    #[error("BVP solver rejected its input: {0}")]
+    Bvp(#[from] bvp::BvpError),
+}
+
+/// The index in `p` of the one weight with `role`, if the model has exactly one.
+fn one_with_role<M: Model>(role: HomotopyRole) -> Result<Option<usize>, LieSolveError<M>> {
+    let mut it = M::WEIGHTS.iter().filter(|w| w.role == role);
+    match (it.next(), it.next()) {
+        (None, _) => Ok(None),
+        (Some(w), None) => Ok(Some(w.index)),
+        (Some(_), Some(_)) => Err(LieSolveError::Roles {
+            model: M::NAME,
+            what: format!("more than one weight has the homotopy role {role:?}"),
+        }),
+    }
+}
+
+/// Samples of the start path's Properties 1–3 on `[a, b_p]`.
+struct PropertyReport {
+    start_error: f64,
+    end_error: f64,
+    max_rel_energy_deviation: f64,
+    min_euler_defect: f64,
+    t_min_euler_defect: f64,
+    finite: bool,
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+fn check_properties<M: Model>(
+    problem: &Problem<M>,
+    path: &dyn Path,
+    (a, b): (f64, f64),
+    samples: usize,
+) -> PropertyReport {
+    let n = M::DIM;
+    let set = problem.level_set();
+    let p = problem.params();
+    let mut jet = vec![0.0; 4 * n];
+    let mut xi = vec![0.0; 4 * n];
+    let mut lambda = [0.0; 3];
+    let mut r = PropertyReport {
+        start_error: 0.0,
+        end_error: 0.0,
+        max_rel_energy_deviation: 0.0,
+        min_euler_defect: f64::INFINITY,
+        t_min_euler_defect: a,
+        finite: true,
+    };
+    for k in 0..samples {
+        let t = a + (b - a) * k as f64 / (samples - 1) as f64;
+        path.jet_into(t, &mut jet);
+        r.finite &= jet.iter().all(|v| v.is_finite());
+        let value = &jet[..n];
+        if k == 0 {
+            let d: Vec<f64> = value
+                .iter()
+                .zip(&problem.omega_a)
+                .map(|(x, y)| x - y)
+                .collect();
+            r.start_error = norm(&d);
+        }
+        if k == samples - 1 {
+            let d: Vec<f64> = value
+                .iter()
+                .zip(&problem.omega_b)
+                .map(|(x, y)| x - y)
+                .collect();
+            r.end_error = norm(&d);
+        }
+        let dev = set.relative_mismatch(value).abs();
+        r.max_rel_energy_deviation = r.max_rel_energy_deviation.max(dev);
+        // xi~ = I Om' - ad*_Om I Om is the first block of the generated singular jet.
+        M::singular_jet(&jet, p, &mut xi, &mut lambda);
+        let defect = norm(&xi[..n]);
+        if defect < r.min_euler_defect || defect.is_nan() {
+            r.min_euler_defect = defect;
+            r.t_min_euler_defect = t;
+        }
+    }
+    r
+}
+
+type SharedPath = Arc<dyn Path>;
+
+/// Choose `Ω_p` and the paper case (module docs).
+fn choose_start<M: Model>(
+    problem: &Problem<M>,
+    b_p: f64,
+    beta_m: f64,
+    gamma_positive: bool,
+    strategy: StartStrategy,
+) -> Result<(SharedPath, StartChoice), LieSolveError<M>> {
+    let a = problem.t0;
+    let samples = 4001;
+    let scale = norm(&problem.omega_a);
+    let inertia = problem.inertia_matrix();
+    let inertia_scale = inertia.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+    let admissible = |r: &PropertyReport| {
+        r.finite
+            && r.start_error <= 1e-9 * scale
+            && r.end_error <= 1e-9 * scale
+            && r.min_euler_defect > 1e-6 * inertia_scale * scale * scale
+    };
+    let desired = check_properties(problem, &*problem.desired, (a, b_p), samples);
+    let projected: SharedPath = Arc::new(Projected {
+        inner: problem.desired.clone(),
+        set: problem.level_set(),
+    });
+    let proj = check_properties(problem, &*projected, (a, b_p), samples);
+    let segment = || -> Result<SharedPath, LieSolveError<M>> {
+        let seg = projected_segment(
+            &problem.level_set(),
+            &problem.omega_a,
+            &problem.omega_b,
+            a,
+            b_p,
+            crate::suslov::problem::ENERGY_REL_TOL,
+        )
+        .map_err(|e| LieSolveError::Start(e.to_string()))?;
+        let r = check_properties(problem, &seg, (a, b_p), samples);
+        if !admissible(&r) {
+            return Err(LieSolveError::Start(format!(
+                "the projected segment from omega_a to omega_b violates Property 3 \
+                 (min |I Om' - ad*_Om I Om| = {:e} at t = {}): along it the free motion \
+                 needs no constraint force; give a desired path instead",
+                r.min_euler_defect, r.t_min_euler_defect
+            )));
+        }
+        Ok(Arc::new(seg))
+    };
+    let choice = |omega_p, case| StartChoice {
+        omega_p,
+        case,
+        b_p,
+        beta_m,
+        desired_energy_deviation: desired.max_rel_energy_deviation,
+    };
+    match strategy {
+        StartStrategy::Auto => {}
+        StartStrategy::Segment => {
+            let case = if gamma_positive { 2 } else { 1 };
+            return Ok((segment()?, choice("projected segment", case)));
+        }
+        StartStrategy::Desired | StartStrategy::DesiredGammaFromZero => {
+            if !gamma_positive {
+                return Err(LieSolveError::Start(
+                    "a start from the desired path needs a tracking weight > 0; use the \
+                     segment or auto start"
+                        .into(),
+                ));
+            }
+            if !admissible(&proj) {
+                return Err(LieSolveError::Start(format!(
+                    "the projected desired path violates Property 1 or 3 on [a, b_p] \
+                     (|Omega_p(a) - Omega_a| = {:e}, |Omega_p(b_p) - Omega_b| = {:e}, \
+                     min |I Om' - ad*_Om I Om| = {:e}); use the segment start",
+                    proj.start_error, proj.end_error, proj.min_euler_defect
+                )));
+            }
+            let case = if strategy == StartStrategy::Desired {
+                3
+            } else {
+                2
+            };
+            return Ok((projected, choice("projected desired path", case)));
+        }
+    }
+    if gamma_positive {
+        if admissible(&proj) {
+            let case = if desired.max_rel_energy_deviation <= ADMISSIBLE_ENERGY_TOL
+                && admissible(&desired)
+            {
+                3
+            } else {
+                2
+            };
+            return Ok((projected, choice("projected desired path", case)));
+        }
+        return Ok((segment()?, choice("projected segment", 2)));
+    }
+    Ok((segment()?, choice("projected segment", 1)))
+}
+
+/// The working state of the homotopy.
+struct Homotopy<'p, M: Model> {
+    problem: &'p Problem<M>,
+    params: Vec<f64>,
+    fixed_span: Option<f64>,
+    t_span: f64,
+    solution: Solution,
+    start: StartChoice,
+    stages: Vec<StageReport>,
+    tolerance: f64,
+    tracking: SharedPath,
+}
+
+impl<M: Model> Homotopy<'_, M> {
+    fn bvp_with(&self, params: Vec<f64>, fixed_span: Option<f64>) -> LieBvp<'_, M> {
+        LieBvp {
+            params,
+            omega_a: &self.problem.omega_a,
+            omega_b: &self.problem.omega_b,
+            t0: self.problem.t0,
+            fixed_span,
+            desired: &*self.tracking,
+            model: std::marker::PhantomData,
+        }
+    }
+
+    fn snapshot(&self) -> LieSolution<M> {
+        let mut problem = self.problem.clone();
+        for w in M::WEIGHTS {
+            problem = problem.with_param(w.index, self.params[w.index]);
+        }
+        if self.fixed_span.is_none() {
+            problem.terminal = TerminalTime::Free {
+                guess: problem.t0 + self.t_span,
+            };
+        }
+        LieSolution {
+            problem,
+            bvp: self.solution.clone(),
+            t_span: self.t_span,
+            start: self.start.clone(),
+            stages: self.stages.clone(),
+            tolerance: self.tolerance,
+        }
+    }
+
+    fn record(
+        &mut self,
+        report: StageReport,
+        parameter: &'static str,
+        reached: f64,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        events(&Event::StageFinished(&report));
+        let stopped = match &report.outcome {
+            StageOutcome::Stopped { reason } => Some(reason.clone()),
+            StageOutcome::Completed => None,
+        };
+        let (name, target) = (report.name, report.to);
+        self.stages.push(report);
+        if let Some(reason) = stopped {
+            return Err(LieSolveError::StageFailed {
+                stage: name,
+                parameter,
+                reached,
+                target,
+                reason,
+                partial: Box::new(self.snapshot()),
+            });
+        }
+        Ok(())
+    }
+
+    /// Continue constant `index` of `p` along `value(λ)`, `λ ∈ [0, 1]`.
+    #[allow(clippy::too_many_arguments)]
+    fn stage(
+        &mut self,
+        name: &'static str,
+        index: usize,
+        from: f64,
+        to: f64,
+        value: &dyn Fn(f64) -> f64,
+        opts: &continuation::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        let clock = std::time::Instant::now();
+        events(&Event::StageStarted { name, from, to });
+        let base = self.params.clone();
+        let fixed_span = self.fixed_span;
+        let family = |lambda: f64| {
+            let mut p = base.clone();
+            p[index] = value(lambda);
+            self.bvp_with(p, fixed_span)
+        };
+        let shared = std::cell::RefCell::new(&mut *events);
+        let outcome = continuation::natural_with_progress(
+            family,
+            0.0,
+            1.0,
+            &self.solution,
+            opts,
+            &mut |record| {
+                (shared.borrow_mut())(&Event::Step {
+                    stage: name,
+                    record,
+                })
+            },
+            &mut |lambda, progress| {
+                (shared.borrow_mut())(&Event::Bvp {
+                    stage: name,
+                    lambda,
+                    progress,
+                })
+            },
+        )?;
+        self.params[index] = value(outcome.lambda);
+        self.solution = outcome.solution.clone();
+        if self.fixed_span.is_none() {
+            self.t_span = self.solution.p[SPAN];
+        }
+        let report = StageReport {
+            name,
+            from,
+            to,
+            steps: outcome.steps(),
+            failures_recovered: outcome.failures(),
+            newton_iterations: outcome.newton_iterations(),
+            nodes: self.solution.num_nodes(),
+            seconds: clock.elapsed().as_secs_f64(),
+            outcome: if outcome.status.is_success() {
+                StageOutcome::Completed
+            } else {
+                StageOutcome::Stopped {
+                    reason: outcome.status.to_string(),
+                }
+            },
+        };
+        self.record(report, M::PARAM_NAMES[index], value(outcome.lambda), events)
+    }
+
+    /// One BVP solve with the current constants from `guess`.
+    fn single_solve(
+        &mut self,
+        name: &'static str,
+        guess: &Guess,
+        options: &bvp::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        let clock = std::time::Instant::now();
+        events(&Event::StageStarted {
+            name,
+            from: 0.0,
+            to: 0.0,
+        });
+        let problem = self.bvp_with(self.params.clone(), self.fixed_span);
+        let sol = bvp::solve_with_progress(&problem, guess, options, &mut |progress| {
+            events(&Event::Bvp {
+                stage: name,
+                lambda: 0.0,
+                progress,
+            })
+        })?;
+        let report = StageReport {
+            name,
+            from: 0.0,
+            to: 0.0,
+            steps: usize::from(sol.is_success()),
+            failures_recovered: 0,
+            newton_iterations: sol.stats.newton_iterations,
+            nodes: sol.num_nodes(),
+            seconds: clock.elapsed().as_secs_f64(),
+            outcome: if sol.is_success() {
+                StageOutcome::Completed
+            } else {
+                StageOutcome::Stopped {
+                    reason: format!("{:?}: {}", sol.status, sol.status.message()),
+                }
+            },
+        };
+        if sol.is_success() {
+            self.solution = sol;
+            if self.fixed_span.is_none() {
+                self.t_span = self.solution.p[SPAN];
+            }
+        }
+        self.record(report, "-", f64::NAN, events)
+    }
+}
+
+/// Solve `problem` from the analytic singular solution through the staged homotopy.
+pub fn solve<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let p = problem.params();
+    let beta = one_with_role::<M>(HomotopyRole::Beta)?.ok_or_else(|| LieSolveError::Roles {
+        model: M::NAME,
+        what: "no weight has the homotopy role Beta (the control effort the start needs)".into(),
+    })?;
+    let tracking = one_with_role::<M>(HomotopyRole::Tracking)?;
+    let time = one_with_role::<M>(HomotopyRole::Time)?;
+    let smoothing: Vec<usize> = M::WEIGHTS
+        .iter()
+        .filter(|w| w.role == HomotopyRole::Smoothing)
+        .map(|w| w.index)
+        .collect();
+    if time.is_none() && matches!(problem.terminal, TerminalTime::Free { .. }) {
+        return Err(LieSolveError::Roles {
+            model: M::NAME,
+            what: "a free terminal time needs a weight with the homotopy role Time".into(),
+        });
+    }
+    let gamma = tracking.map_or(0.0, |i| p[i]);
+    let b_p = problem.terminal.initial();
+    let t_p = b_p - problem.t0;
+    let beta_m = options.beta_m.unwrap_or_else(|| {
+        // 1e-2 · min(fixed positive weights, β, γ or 1), as the so(3) layer.
+        let g = if gamma > 0.0 { gamma } else { 1.0 };
+        M::WEIGHTS
+            .iter()
+            .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+            .map(|w| p[w.index])
+            .fold(p[beta].min(g), f64::min)
+            * 1e-2
+    });
+    let (omega_p, start) = choose_start(problem, b_p, beta_m, gamma > 0.0, options.start)?;
+
+    let mut params = p.to_vec();
+    params[beta] = beta_m;
+    for &i in &smoothing {
+        params[i] = 0.0;
+    }
+    if let Some(i) = time {
+        params[i] = 0.0;
+    }
+    if let Some(i) = tracking {
+        params[i] = match start.case {
+            1 => 1.0,
+            2 => 0.0,
+            _ => gamma,
+        };
+    }
+    let n = M::DIM;
+    let m = options.initial_intervals.max(2);
+    let x: Vec<f64> = (0..=m).map(|i| i as f64 / m as f64).collect();
+    let mut bad = None;
+    let guess = Guess::from_fn(&x, M::N_STATE, vec![], |s, out| {
+        let t = problem.t0 + s * t_p;
+        with_buffer(4 * n + 2 * n, |buf| {
+            let (jet, xi) = buf.split_at_mut(4 * n);
+            omega_p.jet_into(t, jet);
+            // [Ω_p, Ω̇_p, Ω̈_p] in, [ξ_p, ξ̇_p] out.
+            M::singular_control(&jet[..3 * n], &params, xi);
+            if xi.iter().any(|v| !v.is_finite()) && bad.is_none() {
+                bad = Some(t);
+            }
+            out[M::OMEGA].copy_from_slice(&jet[..n]);
+            out[M::XI].copy_from_slice(&xi[..n]);
+            out[M::XIDOT].copy_from_slice(&xi[n..]);
+            out[M::KAPPA].fill(0.0);
+        });
+    });
+    if let Some(t) = bad {
+        return Err(LieSolveError::Start(format!(
+            "the singular control xi_p is undefined at t = {t} (Property 3 fails there)"
+        )));
+    }
+    let bvp_opts = |tol: f64| bvp::Options {
+        tol,
+        max_nodes: options.max_nodes,
+        ..Default::default()
+    };
+    let cont = continuation::Options {
+        bvp: bvp::Options {
+            max_newton_failures: 0,
+            max_newton_iter: 15,
+            ..bvp_opts(options.continuation_tol)
+        },
+        initial_step: Some(0.2),
+        ..Default::default()
+    };
+    let clock = std::time::Instant::now();
+    events(&Event::StageStarted {
+        name: "start",
+        from: beta_m,
+        to: beta_m,
+    });
+    // Paper's first case: the start and the tracking stage track Ω_p, not Ω_d.
+    let tracked = if start.case == 1 {
+        omega_p.clone()
+    } else {
+        problem.desired.clone()
+    };
+    let start_bvp = LieBvp::<M> {
+        params: params.clone(),
+        omega_a: &problem.omega_a,
+        omega_b: &problem.omega_b,
+        t0: problem.t0,
+        fixed_span: Some(t_p),
+        desired: &*tracked,
+        model: std::marker::PhantomData,
+    };
+    let first = bvp::solve_with_progress(
+        &start_bvp,
+        &guess,
+        &bvp_opts(options.continuation_tol),
+        &mut |progress| {
+            events(&Event::Bvp {
+                stage: "start",
+                lambda: 0.0,
+                progress,
+            })
+        },
+    )?;
+    let mut report = StageReport {
+        name: "start",
+        from: beta_m,
+        to: beta_m,
+        steps: usize::from(first.is_success()),
+        failures_recovered: 0,
+        newton_iterations: first.stats.newton_iterations,
+        nodes: first.num_nodes(),
+        seconds: clock.elapsed().as_secs_f64(),
+        outcome: StageOutcome::Completed,
+    };
+    if !first.is_success() {
+        let reason = format!(
+            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
+             ({:?}: {}); try a smaller or larger beta_m, or more initial intervals",
+            first.status,
+            first.status.message()
+        );
+        report.outcome = StageOutcome::Stopped {
+            reason: reason.clone(),
+        };
+        events(&Event::StageFinished(&report));
+        return Err(LieSolveError::Start(reason));
+    }
+    events(&Event::StageFinished(&report));
+    let mut h = Homotopy {
+        problem,
+        params,
+        fixed_span: Some(t_p),
+        t_span: t_p,
+        solution: first,
+        start,
+        stages: vec![report],
+        tolerance: options.tol,
+        tracking: tracked,
+    };
+
+    if let Some(i) = tracking {
+        match h.start.case {
+            1 => {
+                h.stage("gamma", i, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?;
+                h.tracking = problem.desired.clone(); // weight 0 from here on
+            }
+            2 => h.stage("gamma", i, 0.0, gamma, &move |l| l * gamma, &cont, events)?,
+            _ => {}
+        }
+    }
+    let beta_target = p[beta];
+    if beta_target != beta_m {
+        let (lo, hi) = (beta_m.ln(), beta_target.ln());
+        h.stage(
+            "beta",
+            beta,
+            beta_m,
+            beta_target,
+            &move |l| (lo + l * (hi - lo)).exp(),
+            &cont,
+            events,
+        )?;
+        h.params[beta] = beta_target;
+    }
+    for &i in &smoothing {
+        let target = p[i];
+        if target > 0.0 {
+            h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
+        }
+    }
+    if let Some(i) = time {
+        let target = p[i];
+        match problem.terminal {
+            // The time weight only shifts the cost at fixed time.
+            TerminalTime::Fixed(_) => h.params[i] = target,
+            TerminalTime::Free { .. } => {
+                let yb = h.solution.eval(1.0);
+                let bvp0 = h.bvp_with(h.params.clone(), h.fixed_span);
+                let mut wb = vec![0.0; M::N_DESIRED];
+                bvp0.desired_at(problem.t0 + t_p, &mut wb);
+                let delta_c = M::delta_start(&yb, &h.params, &wb);
+                h.params[i] = delta_c;
+                h.fixed_span = None;
+                let guess = Guess::from_solution(&h.solution).with_parameters(vec![t_p]);
+                h.single_solve(
+                    "free-time start",
+                    &guess,
+                    &bvp_opts(options.continuation_tol),
+                    events,
+                )?;
+                h.stage(
+                    "delta",
+                    i,
+                    delta_c,
+                    target,
+                    &move |l| delta_c + l * (target - delta_c),
+                    &cont,
+                    events,
+                )?;
+            }
+        }
+    }
+    let guess = Guess::from_solution(&h.solution);
+    h.single_solve("polish", &guess, &bvp_opts(options.tol), events)?;
+    Ok(h.snapshot())
+}

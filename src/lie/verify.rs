@@ -1,0 +1,199 @@
+//! Verify, don't trust: the a-posteriori checks of a [`LieSolution`] of any model, with the
+//! quantities, thresholds and verdict of the so(3) layer ([`crate::suslov::verify`]: the same
+//! [`Diagnostics`] and [`Verification`], calibrated there).
+//!
+//! Computed from the solution's dense output on the fine grid (every mesh interval subdivided
+//! [`FINE_PER_INTERVAL`] times), independently of the solver's error estimate: the cost by
+//! 5-point Gauss–Legendre per interval, the constraint `max |⟨Ω, ξ⟩|`, the kinetic-energy
+//! drift `½⟨Ω, 𝕀Ω⟩` (𝕀 the model's full inertia matrix), `|Ω(b) − Ω_b|`, the residual of the
+//! interpolant, the boundary residuals, and the re-integration of the model's Suslov
+//! equations (the generated `suslov_omega_dot`) as an initial value problem (Verner 9(8),
+//! rtol = atol = 1e-12) driven by the computed `ξ(t), ξ̇(t)`.
+
+use std::cell::RefCell;
+
+use crate::bvp::BvpProblem;
+use crate::ivp::{integrate, IvpOptions};
+use crate::model::Model;
+use crate::suslov::diagnostics::{fine_grid, Diagnostics, FINE_PER_INTERVAL};
+use crate::suslov::verify::Verification;
+
+use super::problem::{quadratic, LieBvp};
+use super::solve::LieSolution;
+
+/// Gauss–Legendre nodes and weights on [0, 1], 5 points.
+const GAUSS5: [(f64, f64); 5] = [
+    (0.046_910_077_030_668, 0.118_463_442_528_094_5),
+    (0.230_765_344_947_158_5, 0.239_314_335_249_683_2),
+    (0.5, 0.284_444_444_444_444_4),
+    (0.769_234_655_052_841_5, 0.239_314_335_249_683_2),
+    (0.953_089_922_969_332, 0.118_463_442_528_094_5),
+];
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// Diagnostics of `sol` (module docs).
+pub fn diagnose<M: Model>(sol: &LieSolution<M>) -> Diagnostics {
+    let problem = &sol.problem;
+    let params = problem.params();
+    let t_span = sol.t_span;
+    let free = matches!(
+        problem.terminal,
+        crate::suslov::problem::TerminalTime::Free { .. }
+    );
+    let full = LieBvp::new(problem);
+    let bvp = LieBvp {
+        fixed_span: Some(t_span),
+        ..LieBvp::new(problem)
+    };
+    let inertia = problem.inertia_matrix();
+    let kinetic = |om: &[f64]| 0.5 * quadratic(&inertia, om);
+    let t_a = kinetic(&problem.omega_a);
+    let x = &sol.bvp.x;
+    let n_state = M::N_STATE;
+    let mut y = vec![0.0; n_state];
+    let mut wd = vec![0.0; M::N_DESIRED];
+
+    let mut cost = 0.0;
+    for w in x.windows(2) {
+        let h = w[1] - w[0];
+        for (node, weight) in GAUSS5 {
+            let s = w[0] + node * h;
+            sol.bvp.eval_into(s, &mut y);
+            bvp.desired_at(problem.t0 + s * t_span, &mut wd);
+            cost += weight * h * t_span * M::cost_integrand(&y, params, &wd);
+        }
+    }
+
+    let grid = fine_grid(x, FINE_PER_INTERVAL);
+    let mut d = Diagnostics {
+        terminal_time: sol.terminal_time(),
+        cost,
+        max_abs_constraint: 0.0,
+        xi_norm_min: f64::INFINITY,
+        xi_norm_max: 0.0,
+        omega_norm_max: 0.0,
+        kinetic_energy: t_a,
+        energy_drift: 0.0,
+        omega_b_error: 0.0,
+        max_residual: 0.0,
+        max_relative_residual: 0.0,
+        max_local_error: 0.0,
+        bc_residual: 0.0,
+        grid_points: grid.len(),
+    };
+    let mut yp = vec![0.0; n_state];
+    let mut f = vec![0.0; n_state];
+    let mut sample = |d: &mut Diagnostics, s: f64, h: f64| {
+        sol.bvp.eval_into(s, &mut y);
+        sol.bvp.eval_derivative_into(s, &mut yp);
+        bvp.f(s, &y, &[], &mut f);
+        let (om, xi) = (&y[M::OMEGA], &y[M::XI]);
+        let c = om.iter().zip(xi).map(|(o, x)| o * x).sum::<f64>();
+        d.max_abs_constraint = d.max_abs_constraint.max(c.abs());
+        let xn = norm(xi);
+        d.xi_norm_min = d.xi_norm_min.min(xn);
+        d.xi_norm_max = d.xi_norm_max.max(xn);
+        d.omega_norm_max = d.omega_norm_max.max(norm(om));
+        d.energy_drift = d.energy_drift.max((kinetic(om) - t_a).abs());
+        for i in 0..n_state {
+            let r = (yp[i] - f[i]).abs();
+            d.max_residual = d.max_residual.max(r);
+            d.max_relative_residual = d.max_relative_residual.max(r / (1.0 + f[i].abs()));
+            d.max_local_error = d.max_local_error.max(h * r / (1.0 + y[i].abs()));
+        }
+    };
+    for w in x.windows(2) {
+        let h = w[1] - w[0];
+        for k in 0..FINE_PER_INTERVAL {
+            sample(&mut d, w[0] + h * k as f64 / FINE_PER_INTERVAL as f64, h);
+        }
+    }
+    let h_last = x[x.len() - 1] - x[x.len() - 2];
+    sample(&mut d, x[x.len() - 1], h_last);
+    let ya = sol.bvp.eval(0.0);
+    let yb = sol.bvp.eval(1.0);
+    let diff: Vec<f64> = yb[M::OMEGA]
+        .iter()
+        .zip(&problem.omega_b)
+        .map(|(a, b)| a - b)
+        .collect();
+    d.omega_b_error = norm(&diff);
+    let p_vec: Vec<f64> = if free { vec![t_span] } else { vec![] };
+    let mut res = vec![0.0; full.n() + full.k()];
+    full.bc(&ya, &yb, &p_vec, &mut res);
+    d.bc_residual = res.iter().fold(0.0, |m, v| m.max(v.abs()));
+    d
+}
+
+/// The re-integration's result: `max |Ω_ivp − Ω_bvp|` and where.
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Reintegration {
+    /// `max |Ω_ivp(t) − Ω_bvp(t)|` at the points of `fine_grid(mesh, 2)`.
+    pub max_abs_diff: f64,
+    /// Where.
+    pub t_max_abs_diff: f64,
+    /// Relative kinetic-energy drift along the re-integration.
+    pub max_rel_energy_drift: f64,
+}
+
+/// Re-integrate the model's Suslov equations `Ω̇ = F(Ω, ξ(t), ξ̇(t))` (the generated
+/// `suslov_omega_dot`) from `Ω_a` with the computed control, and compare with the BVP's `Ω`.
+pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegration, String> {
+    let problem = &sol.problem;
+    let (a, b) = (problem.t0, sol.terminal_time());
+    let n = M::DIM;
+    let params = problem.params();
+    let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
+        .iter()
+        .map(|s| (a + s * sol.t_span).min(b))
+        .collect();
+    let scratch = RefCell::new((vec![0.0; M::N_STATE], vec![0.0; 3 * n]));
+    let rhs = |t: f64, om: &[f64], dy: &mut [f64]| {
+        let (y, x) = &mut *scratch.borrow_mut();
+        sol.state_into(t.clamp(a, b), y);
+        x[..n].copy_from_slice(om);
+        x[n..2 * n].copy_from_slice(&y[M::XI]);
+        x[2 * n..].copy_from_slice(&y[M::XIDOT]);
+        M::suslov_omega_dot(x, params, dy);
+    };
+    let run = integrate(
+        rhs,
+        (a, b),
+        &problem.omega_a,
+        &times,
+        &IvpOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let inertia = problem.inertia_matrix();
+    let level = quadratic(&inertia, &problem.omega_a);
+    let mut out = Reintegration {
+        max_abs_diff: 0.0,
+        t_max_abs_diff: a,
+        max_rel_energy_drift: 0.0,
+    };
+    let mut y = vec![0.0; M::N_STATE];
+    for (t, om) in run.t.iter().zip(&run.y) {
+        sol.state_into(*t, &mut y);
+        let diff: Vec<f64> = om.iter().zip(&y[M::OMEGA]).map(|(a, b)| a - b).collect();
+        let dn = norm(&diff);
+        if dn > out.max_abs_diff || dn.is_nan() {
+            out.max_abs_diff = dn;
+            out.t_max_abs_diff = *t;
+        }
+        let drift = (quadratic(&inertia, om) / level - 1.0).abs();
+        out.max_rel_energy_drift = out.max_rel_energy_drift.max(drift);
+    }
+    Ok(out)
+}
+
+/// Diagnose `sol`, re-integrate its control and check both against its requested tolerance
+/// (the so(3) layer's [`Verification`]).
+pub fn verify_solution<M: Model>(sol: &LieSolution<M>) -> (Diagnostics, Verification) {
+    let d = diagnose(sol);
+    let reintegration = reintegrate_difference(sol).map(|r| r.max_abs_diff);
+    let v = Verification::new(&d, reintegration, norm(&sol.problem.omega_b), sol.tolerance);
+    (d, v)
+}

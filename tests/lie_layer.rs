@@ -1,0 +1,231 @@
+//! The generic problem layer (`suslov::lie`): it reproduces the so(3) layer on the paper's
+//! problem, and it solves the se(2) and so(4) examples from their problem files, verified —
+//! and the files it writes pass independent checks (constraint, energy, end points, and for
+//! se(2) the reconstructed planar motion against an independent integration of the pose).
+
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+use suslov::lie::path::Path as LiePath;
+use suslov::lie::{self, Problem};
+use suslov::model::so3::So3;
+use suslov::model::Model;
+use suslov::suslov::desired::DesiredPath;
+use suslov::suslov::paper;
+use suslov::suslov::problem::TerminalTime;
+use suslov::suslov::solve::SolveOptions;
+
+/// An so(3) desired path as a path of the generic layer (test adapter).
+struct So3Path(Arc<dyn DesiredPath + Send + Sync>);
+
+impl LiePath for So3Path {
+    fn dim(&self) -> usize {
+        3
+    }
+    fn jet_into(&self, t: f64, out: &mut [f64]) {
+        let j = self.0.jet(t);
+        for (k, v) in [j.value, j.d1, j.d2, j.d3].iter().enumerate() {
+            out[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
+        }
+    }
+    fn value_into(&self, t: f64, out: &mut [f64]) {
+        out.copy_from_slice(self.0.value(t).as_slice());
+    }
+}
+
+/// The paper's problem (section 5.3) through the generic layer, parameters set by name.
+fn paper_generic(eta: f64) -> Problem<So3> {
+    let p = paper::problem(eta);
+    let by_name: HashMap<&str, f64> = HashMap::from([
+        ("I1", p.inertia.diag()[0]),
+        ("I2", p.inertia.diag()[1]),
+        ("I3", p.inertia.diag()[2]),
+        ("alpha", p.weights.alpha),
+        ("beta", p.weights.beta),
+        ("gamma", p.weights.gamma),
+        ("eta", p.weights.eta),
+        ("delta", p.weights.delta),
+    ]);
+    let user: Vec<f64> = So3::PARAM_NAMES[..So3::N_USER_PARAM]
+        .iter()
+        .map(|n| by_name[n])
+        .collect();
+    Problem::new(
+        &user,
+        p.t0,
+        p.omega_a.as_slice().to_vec(),
+        p.omega_b.as_slice().to_vec(),
+        p.terminal,
+        Arc::new(So3Path(p.desired.clone())),
+    )
+    .expect("the paper's problem is valid")
+}
+
+#[test]
+fn the_generic_layer_reproduces_the_papers_b_and_cost_on_so3() {
+    // Recorded by the so(3) layer (tests/suslov_verify.rs), eta = 1: b and J.
+    let (b_ref, j_ref) = (11.359616203476826, 15.394760771339984);
+    let problem = paper_generic(1.0);
+    assert!(matches!(problem.terminal, TerminalTime::Free { .. }));
+    let sol = lie::solve(&problem, &SolveOptions::default(), &mut |_| {}).expect("solves");
+    let (d, v) = lie::verify_solution(&sol);
+    assert!(v.passed(), "{:?}", v.verdict());
+    let b = sol.terminal_time();
+    assert!(
+        (b - b_ref).abs() <= 1e-9 * b_ref,
+        "b = {b}, so(3) layer {b_ref}"
+    );
+    assert!(
+        (d.cost - j_ref).abs() <= 1e-9 * j_ref,
+        "J = {}, so(3) layer {j_ref}",
+        d.cost
+    );
+    // The same stages as the so(3) layer: start, beta, eta, free-time start, delta, polish.
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert_eq!(
+        names,
+        ["start", "beta", "eta", "free-time start", "delta", "polish"]
+    );
+}
+
+/// Columns of a CSV written by the tool, by header name.
+fn read_csv(path: &Path) -> HashMap<String, Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<String> = lines.next().unwrap().split(',').map(String::from).collect();
+    let mut cols: Vec<Vec<f64>> = vec![Vec::new(); header.len()];
+    for line in lines {
+        for (c, v) in line.split(',').enumerate() {
+            cols[c].push(v.parse().unwrap());
+        }
+    }
+    header.into_iter().zip(cols).collect()
+}
+
+/// A fresh directory under the system's temporary directory (removed by the caller).
+fn scratch(tag: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("suslov-lie-{tag}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    dir
+}
+
+fn solve_example(file: &str) -> (std::path::PathBuf, serde_json::Value) {
+    let dir = scratch(file);
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(file);
+    let summary = suslov::app::run_solve(&path, &dir, &mut |_| {}).expect("runs");
+    assert_eq!(
+        summary.cases[0].status, "converged",
+        "{file}: {}",
+        summary.cases[0].status
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(dir.join("summary.json")).unwrap()).unwrap();
+    (dir, json)
+}
+
+/// Independent checks of `trajectory.csv` of model `M`: ⟨Ω, ξ⟩ = 0, the kinetic energy
+/// (from the model's inertia matrix at the file's parameters) constant, the end points.
+fn check_trajectory<M: Model>(dir: &Path, json: &serde_json::Value) {
+    let cols = read_csv(&dir.join("trajectory.csv"));
+    let n = M::DIM;
+    let col = |k: usize| &cols[M::STATE_NAMES[k]];
+    let rows = cols["t"].len();
+    let params = &json["cases"][0]["extra"]["parameters"];
+    let mut p = vec![0.0; M::N_PARAM];
+    for meta in M::INERTIA_PARAMS.iter().chain(M::WEIGHTS) {
+        p[meta.index] = params[meta.name].as_f64().unwrap();
+    }
+    let mut inertia = vec![0.0; n * n];
+    M::inertia_matrix(&p, &mut inertia);
+    let energy = |r: usize| -> f64 {
+        (0..n)
+            .map(|i| col(i)[r] * (0..n).map(|j| inertia[i * n + j] * col(j)[r]).sum::<f64>())
+            .sum()
+    };
+    let e0 = energy(0);
+    let omega_a: Vec<f64> =
+        serde_json::from_value(json["cases"][0]["extra"]["omega_a"].clone()).unwrap();
+    let omega_b: Vec<f64> =
+        serde_json::from_value(json["cases"][0]["extra"]["omega_b"].clone()).unwrap();
+    for r in 0..rows {
+        let c: f64 = (0..n).map(|i| col(i)[r] * col(n + i)[r]).sum();
+        assert!(c.abs() < 1e-6, "<Omega, xi> = {c} at row {r}");
+        assert!((energy(r) / e0 - 1.0).abs() < 1e-6, "energy at row {r}");
+    }
+    for i in 0..n {
+        assert!((col(i)[0] - omega_a[i]).abs() < 1e-9);
+        assert!((col(i)[rows - 1] - omega_b[i]).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn the_steered_sleigh_solves_from_its_file_and_its_planar_path_is_right() {
+    use suslov::model::se2::Se2;
+    let (dir, json) = solve_example("se2_sleigh.toml");
+    assert_eq!(json["cases"][0]["extra"]["model"], "se2");
+    check_trajectory::<Se2>(&dir, &json);
+    // The pose (x, y, θ) of motion.csv against an independent integration of the planar
+    // kinematics ẋ = v1 cos θ − v2 sin θ, ẏ = v1 sin θ + v2 cos θ, θ̇ = ω (trapezoidal rule on
+    // the trajectory's 2001 points: error O(h²) ≈ 1e-6 here).
+    let traj = read_csv(&dir.join("trajectory.csv"));
+    let motion = read_csv(&dir.join("motion.csv"));
+    let t = &traj["t"];
+    let (w, v1, v2) = (&traj["omega1"], &traj["omega2"], &traj["omega3"]);
+    let (mut x, mut y, mut th) = (0.0, 0.0, 0.0);
+    let rate = |k: usize, th: f64| {
+        (
+            v1[k] * th.cos() - v2[k] * th.sin(),
+            v1[k] * th.sin() + v2[k] * th.cos(),
+        )
+    };
+    let mut worst: f64 = 0.0;
+    for k in 1..t.len() {
+        let h = t[k] - t[k - 1];
+        let th_new = th + 0.5 * h * (w[k - 1] + w[k]);
+        let (a0, b0) = rate(k - 1, th);
+        let (a1, b1) = rate(k, th_new);
+        x += 0.5 * h * (a0 + a1);
+        y += 0.5 * h * (b0 + b1);
+        th = th_new;
+        for (mine, theirs) in [
+            (x, motion["x"][k]),
+            (y, motion["y"][k]),
+            (th, motion["theta"][k]),
+        ] {
+            worst = worst.max((mine - theirs).abs());
+        }
+    }
+    assert!(worst < 1e-4, "pose differs by {worst}");
+    assert!(
+        json["cases"][0]["extra"]["motion_error_estimate"]
+            .as_f64()
+            .unwrap()
+            < 1e-8
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn the_generalised_rigid_body_on_so4_solves_from_its_file() {
+    use suslov::model::so4::So4;
+    let (dir, json) = solve_example("so4_body.toml");
+    assert_eq!(json["cases"][0]["extra"]["model"], "so4");
+    check_trajectory::<So4>(&dir, &json);
+    // The attitude in motion.csv stays in SO(4): gᵀg = 1.
+    let motion = read_csv(&dir.join("motion.csv"));
+    let rows = motion["t"].len();
+    for r in [0, rows / 2, rows - 1] {
+        let g = |i: usize, j: usize| motion[&format!("g{}{}", i + 1, j + 1)][r];
+        for i in 0..4 {
+            for j in 0..4 {
+                let dot: f64 = (0..4).map(|k| g(k, i) * g(k, j)).sum();
+                let want = if i == j { 1.0 } else { 0.0 };
+                assert!((dot - want).abs() < 1e-10, "g^T g [{i}][{j}] = {dot}");
+            }
+        }
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
