@@ -8,6 +8,8 @@
 //! # Schema
 //!
 //! ```toml
+//! model = "so3"                      # optional (the default); files of the other generated
+//!                                    # models (se2, so4, ...) are described in [`generic`]
 //! name = "my_problem"                # optional; default: the file name without extension
 //!
 //! [body]
@@ -1524,6 +1526,17 @@ impl ProblemFile {
         base_dir: &Path,
     ) -> Result<LoadedProblem, ConfigError> {
         let name = self.case_name(default_name)?;
+        if let Some(model) = self.model.as_deref().filter(|m| *m != "so3") {
+            return Err(ConfigError::Invalid {
+                field: "model".into(),
+                message: format!(
+                    "{:?}: this command reads so(3) problem files only (so far); files of the \
+                     other models ({}) are solved by `suslov solve`",
+                    clip(model),
+                    crate::model::MODEL_NAMES.join(", ")
+                ),
+            });
+        }
         // [body]
         let body = self.body.as_ref().ok_or_else(|| {
             missing(

@@ -40,9 +40,28 @@ fn every_example_loads_and_validates() {
         );
     }
     for (path, stem) in files.iter().zip(&names) {
-        let loaded = config::load(path).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(&loaded.name, stem, "name = file stem in {}", path.display());
-        loaded.problem.validate().unwrap();
+        let (loaded, _) = config::load_any(path).unwrap_or_else(|e| panic!("{e}"));
+        let name = match loaded {
+            config::Loaded::So3(loaded) => {
+                loaded.problem.validate().unwrap();
+                loaded.name
+            }
+            config::Loaded::Other(file) => match file.model.as_str() {
+                "se2" => file.build::<suslov::model::se2::Se2>().map(|l| l.name),
+                "so4" => file.build::<suslov::model::so4::So4>().map(|l| l.name),
+                other => panic!("add model {other} to this test"),
+            }
+            .unwrap_or_else(|e| panic!("{e}")),
+        };
+        assert_eq!(&name, stem, "name = file stem in {}", path.display());
+    }
+    // Every shipped model has an example.
+    for model in suslov::model::MODEL_NAMES {
+        let has = files.iter().any(|p| match config::load_any(p).unwrap().0 {
+            config::Loaded::So3(_) => model == "so3",
+            config::Loaded::Other(f) => f.model == model,
+        });
+        assert!(has, "no example for model {model}");
     }
 }
 

@@ -229,3 +229,77 @@ fn the_generalised_rigid_body_on_so4_solves_from_its_file() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The error `suslov solve` gives for the se2 example with `edit` applied to its text.
+fn error_for(tag: &str, edit: impl Fn(&str) -> String) -> String {
+    let src = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml"),
+    )
+    .unwrap();
+    let dir = scratch(&format!("bad-{tag}"));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("problem_in.toml");
+    std::fs::write(&file, edit(&src)).unwrap();
+    let out = dir.join("out");
+    let err = suslov::app::run_solve(&file, &out, &mut |_| {})
+        .expect_err("a bad file is an error")
+        .to_string();
+    // Nothing was written for an invalid file.
+    assert!(!out.join("summary.json").exists(), "{tag}");
+    let _ = std::fs::remove_dir_all(&dir);
+    err
+}
+
+#[test]
+fn bad_model_files_get_messages_that_name_the_field_and_the_fix() {
+    type Edit = Box<dyn Fn(&str) -> String>;
+    let cases: Vec<(&str, Edit, &[&str])> = vec![
+        (
+            "length",
+            Box::new(|s: &str| s.replace("omega_a = [1.0, 0.5, 0.0]", "omega_a = [1.0, 0.5]")),
+            &["boundary.omega_a", "2 entries, expected 3", "e0, e1, e2"],
+        ),
+        (
+            "unknown-body-key",
+            Box::new(|s: &str| s.replace("Ic = 0.5", "Ic = 0.5\ninertia = [1.0, 2.0, 3.0]")),
+            &["body.inertia", "unknown key", "m, Ic, c1, c2"],
+        ),
+        (
+            "off-level-set",
+            Box::new(|s: &str| s.replace("omega_b = [-0.3872983346207417", "omega_b = [-0.5")),
+            &["boundary.omega_b", "energy level set", "projection"],
+        ),
+        (
+            "unknown-model",
+            Box::new(|s: &str| s.replace("model = \"se2\"", "model = \"se3\"")),
+            &["model", "se2, so3, so4"],
+        ),
+        (
+            "missing-weight",
+            Box::new(|s: &str| s.replace("beta = 0.1\n", "")),
+            &["cost.beta", "missing", "control effort"],
+        ),
+        (
+            "negative-mass",
+            Box::new(|s: &str| s.replace("m = 1.0", "m = -1.0")),
+            &["body.m", "mass"],
+        ),
+        (
+            "nan",
+            Box::new(|s: &str| s.replace("c1 = 0.3", "c1 = nan")),
+            &["body.c1", "not a finite number"],
+        ),
+        (
+            "singular-inertia",
+            // I_c > 0 and m > 0 always give an SPD inertia; a huge offset overflows it.
+            Box::new(|s: &str| s.replace("c1 = 0.3", "c1 = 1e200")),
+            &["body"],
+        ),
+    ];
+    for (tag, edit, words) in cases {
+        let msg = error_for(tag, edit);
+        for w in words {
+            assert!(msg.contains(w), "{tag}: {w:?} not in {msg:?}");
+        }
+    }
+}

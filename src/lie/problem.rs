@@ -440,13 +440,15 @@ impl<M: Model> BvpProblem for LieBvp<'_, M> {
     }
 
     fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
-        let nb = M::N_BC_ENDPOINT;
-        M::bc_endpoint(ya, &self.params, self.omega_a, &mut res[..nb]);
-        M::bc_endpoint(yb, &self.params, self.omega_b, &mut res[nb..2 * nb]);
+        // Rows: N_BC_ENDPOINT conditions at a, as many at b, then the free-time condition.
+        let (at_a, rest) = res.split_at_mut(M::N_BC_ENDPOINT);
+        let (at_b, free_time) = rest.split_at_mut(M::N_BC_ENDPOINT);
+        M::bc_endpoint(ya, &self.params, self.omega_a, at_a);
+        M::bc_endpoint(yb, &self.params, self.omega_b, at_b);
         if self.fixed_span.is_none() {
             with_buffer(M::N_DESIRED, |wb| {
                 self.desired_at(self.t0 + p[SPAN], wb);
-                res[2 * nb] = M::free_time_condition(yb, &self.params, wb);
+                free_time[0] = M::free_time_condition(yb, &self.params, wb);
             });
         }
     }

@@ -144,19 +144,18 @@ pub struct Reintegration {
 pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegration, String> {
     let problem = &sol.problem;
     let (a, b) = (problem.t0, sol.terminal_time());
-    let n = M::DIM;
     let params = problem.params();
     let times: Vec<f64> = fine_grid(&sol.bvp.x, 2)
         .iter()
         .map(|s| (a + s * sol.t_span).min(b))
         .collect();
-    let scratch = RefCell::new((vec![0.0; M::N_STATE], vec![0.0; 3 * n]));
+    // `suslov_omega_dot` takes x = [Ω, ξ, ξ̇]: the state's first three blocks.
+    let scratch = RefCell::new((vec![0.0; M::N_STATE], vec![0.0; M::KAPPA.start]));
     let rhs = |t: f64, om: &[f64], dy: &mut [f64]| {
         let (y, x) = &mut *scratch.borrow_mut();
         sol.state_into(t.clamp(a, b), y);
-        x[..n].copy_from_slice(om);
-        x[n..2 * n].copy_from_slice(&y[M::XI]);
-        x[2 * n..].copy_from_slice(&y[M::XIDOT]);
+        x.copy_from_slice(&y[..M::KAPPA.start]);
+        x[M::OMEGA].copy_from_slice(om);
         M::suslov_omega_dot(x, params, dy);
     };
     let run = integrate(
