@@ -495,15 +495,7 @@ pub struct CaseJob {
 /// in `config`, or the paper's two;
 /// `tolerance` overrides the final BVP tolerance (the mesh the certificate runs on).
 pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<CaseJob>, AppError> {
-    if let Some(t) = tolerance {
-        let (lo, hi) = config::TOLERANCE_RANGE;
-        if !(t.is_finite() && (lo..=hi).contains(&t)) {
-            return Err(AppError::InvalidArgument(format!(
-                "--tolerance must be a number in [{lo:e}, {hi:e}] (as solver.tolerance in a \
-                 problem file; e.g. 1e-8), got {t:e}"
-            )));
-        }
-    }
+    check_tolerance(tolerance)?;
     let mut jobs = match config {
         Some(path) => {
             let loaded = config::load(path)?;
@@ -539,25 +531,7 @@ pub fn run_certify(
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
     use crate::ocp::{NewtonOptions, SecondOrderOptions};
-    // The certificate must not be lost to an unwritable path found after minutes of work.
-    if let Some(path) = json {
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
-                path: dir.to_path_buf(),
-                source,
-            })?;
-        }
-        report::probe_writable(path)?;
-        // An output directory of `paper`/`solve` holds exactly one run's files: a JSON
-        // written over one of them would replace that run's result (even while it runs).
-        if report::belongs_to_a_run(path) {
-            return Err(AppError::InvalidArgument(format!(
-                "--json {}: that file belongs to the `suslov paper`/`solve` run whose output \
-                 directory it is in; give the JSON another name (or write it elsewhere)",
-                crate::echo::echo(&path.display().to_string()),
-            )));
-        }
-    }
+    prepare_certificate_json(json)?;
     let mut reports = Vec::new();
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
@@ -592,12 +566,81 @@ pub fn run_certify(
         events(AppEvent::Certified(&report));
         reports.push(report);
     }
+    write_certificate_json(json, &reports, events)?;
+    Ok(reports)
+}
+
+/// `suslov certify [CONFIG]` for a problem file of any model (or the paper's cases): so(3)
+/// files through [`case_jobs`] and [`run_certify`], the other models through the generic
+/// layer ([`lie::run_model_certify`]).
+pub fn run_certify_any(
+    config: Option<&Path>,
+    tolerance: Option<f64>,
+    json: Option<&Path>,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Vec<CertificateReport>, AppError> {
+    if let Some(path) = config {
+        if let (config::Loaded::Other(file), _) = config::load_any(path)? {
+            check_tolerance(tolerance)?;
+            return crate::model::with_model!(file.model.as_str(), M => {
+                lie::run_model_certify::<M>(&file, tolerance, json, events)
+            }, _ => unreachable!("config::load_any returns generated model names only"));
+        }
+    }
+    let jobs = case_jobs(config, tolerance)?;
+    run_certify(&jobs, json, events)
+}
+
+/// `--tolerance`, if given, within [`config::TOLERANCE_RANGE`].
+fn check_tolerance(tolerance: Option<f64>) -> Result<(), AppError> {
+    if let Some(t) = tolerance {
+        let (lo, hi) = config::TOLERANCE_RANGE;
+        if !(t.is_finite() && (lo..=hi).contains(&t)) {
+            return Err(AppError::InvalidArgument(format!(
+                "--tolerance must be a number in [{lo:e}, {hi:e}] (as solver.tolerance in a \
+                 problem file; e.g. 1e-8), got {t:e}"
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Checks that the certificates' JSON can be written, before minutes of work.
+pub(crate) fn prepare_certificate_json(json: Option<&Path>) -> Result<(), AppError> {
+    // The certificate must not be lost to an unwritable path found after minutes of work.
+    if let Some(path) = json {
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+                path: dir.to_path_buf(),
+                source,
+            })?;
+        }
+        report::probe_writable(path)?;
+        // An output directory of `paper`/`solve` holds exactly one run's files: a JSON
+        // written over one of them would replace that run's result (even while it runs).
+        if report::belongs_to_a_run(path) {
+            return Err(AppError::InvalidArgument(format!(
+                "--json {}: that file belongs to the `suslov paper`/`solve` run whose output \
+                 directory it is in; give the JSON another name (or write it elsewhere)",
+                crate::echo::echo(&path.display().to_string()),
+            )));
+        }
+    }
+    Ok(())
+}
+
+/// Writes the certificates as `{"cases": [...]}` to `json` (atomically), if given.
+pub(crate) fn write_certificate_json(
+    json: Option<&Path>,
+    reports: &[CertificateReport],
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<(), AppError> {
     if let Some(path) = json {
         #[derive(serde::Serialize)]
         struct Cases<'a> {
             cases: &'a [CertificateReport],
         }
-        let text = serde_json::to_vec_pretty(&Cases { cases: &reports }).map_err(|source| {
+        let text = serde_json::to_vec_pretty(&Cases { cases: reports }).map_err(|source| {
             ReportError::Json {
                 path: path.to_path_buf(),
                 source,
@@ -606,7 +649,7 @@ pub fn run_certify(
         report::write_atomic(path, &text)?;
         events(AppEvent::Wrote(path));
     }
-    Ok(reports)
+    Ok(())
 }
 
 /// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the

@@ -388,9 +388,10 @@ fn main() -> ExitCode {
             json,
             tolerance,
         } => {
-            let result = app::case_jobs(config.as_deref(), tolerance).and_then(|jobs| {
-                app::run_certify(&jobs, json.as_deref(), &mut |e| reporter.event(e))
-            });
+            let result =
+                app::run_certify_any(config.as_deref(), tolerance, json.as_deref(), &mut |e| {
+                    reporter.event(e)
+                });
             match result {
                 Ok(reports) => {
                     for r in &reports {

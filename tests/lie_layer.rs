@@ -110,8 +110,10 @@ fn scratch(tag: &str) -> std::path::PathBuf {
     dir
 }
 
-fn solve_example(file: &str) -> (std::path::PathBuf, serde_json::Value) {
-    let dir = scratch(file);
+/// Solve `examples/<file>` with `suslov solve` into a scratch directory named after `tag`
+/// (tests run in parallel: each its own directory).
+fn solve_example(file: &str, tag: &str) -> (std::path::PathBuf, serde_json::Value) {
+    let dir = scratch(&format!("{tag}-{file}"));
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("examples")
         .join(file);
@@ -164,7 +166,7 @@ fn check_trajectory<M: Model>(dir: &Path, json: &serde_json::Value) {
 #[test]
 fn the_steered_sleigh_solves_from_its_file_and_its_planar_path_is_right() {
     use suslov::model::se2::Se2;
-    let (dir, json) = solve_example("se2_sleigh.toml");
+    let (dir, json) = solve_example("se2_sleigh.toml", "sleigh");
     assert_eq!(json["cases"][0]["extra"]["model"], "se2");
     check_trajectory::<Se2>(&dir, &json);
     // The pose (x, y, θ) of motion.csv against an independent integration of the planar
@@ -211,7 +213,7 @@ fn the_steered_sleigh_solves_from_its_file_and_its_planar_path_is_right() {
 #[test]
 fn the_generalised_rigid_body_on_so4_solves_from_its_file() {
     use suslov::model::so4::So4;
-    let (dir, json) = solve_example("so4_body.toml");
+    let (dir, json) = solve_example("so4_body.toml", "so4");
     assert_eq!(json["cases"][0]["extra"]["model"], "so4");
     check_trajectory::<So4>(&dir, &json);
     // The attitude in motion.csv stays in SO(4): gᵀg = 1.
@@ -301,5 +303,97 @@ fn bad_model_files_get_messages_that_name_the_field_and_the_fix() {
         for w in words {
             assert!(msg.contains(w), "{tag}: {w:?} not in {msg:?}");
         }
+    }
+}
+
+#[test]
+fn the_generic_certificate_equals_the_so3_layers_on_the_paper() {
+    use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
+    let (newton, opts) = (NewtonOptions::default(), SecondOrderOptions::default());
+    let so3 =
+        suslov::suslov::solve::solve(&paper::problem(1.0), &SolveOptions::default(), &mut |_| {})
+            .unwrap();
+    let reference = suslov::suslov::certify::certify(&so3, &newton, &opts).unwrap();
+    let sol = lie::solve(&paper_generic(1.0), &SolveOptions::default(), &mut |_| {}).unwrap();
+    let cert = lie::certify::certify(&sol, &newton, &opts).unwrap();
+    assert_eq!(cert.verdict(), Verdict::Certified);
+    assert_eq!(cert.verdict(), reference.verdict());
+    let (a, b) = (
+        &cert.certificate.second_order,
+        &reference.certificate.second_order,
+    );
+    assert_eq!((a.n_var, a.n_con), (b.n_var, b.n_con));
+    assert_eq!(
+        (a.inertia.positive, a.inertia.negative, a.inertia.zero),
+        (b.inertia.positive, b.inertia.negative, b.inertia.zero)
+    );
+    let (lo_a, _) = a.margin.unwrap();
+    let (lo_b, _) = b.margin.unwrap();
+    assert!(
+        (lo_a - lo_b).abs() <= 1e-6 * lo_b,
+        "margin {lo_a} vs {lo_b}"
+    );
+    assert!((cert.cost - reference.cost).abs() <= 1e-9 * reference.cost.abs());
+    assert!(cert.costate_mismatch < 1e-3, "{}", cert.costate_mismatch);
+}
+
+/// Solve and certify the example `file` of model `M` with the generic layer.
+fn certify_example<M: Model>(file: &str) -> suslov::suslov::certify::SuslovCertificate {
+    use suslov::config::{load_any, Loaded};
+    use suslov::ocp::{NewtonOptions, SecondOrderOptions};
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("examples")
+        .join(file);
+    let Loaded::Other(f) = load_any(&path).unwrap().0 else {
+        panic!("{file} is not a file of another model")
+    };
+    let loaded = f.build::<M>().unwrap();
+    let sol = lie::solve(&loaded.problem, &loaded.options, &mut |_| {}).unwrap();
+    let cert = lie::certify::certify(
+        &sol,
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .unwrap();
+    let so = &cert.certificate.second_order;
+    eprintln!(
+        "{file}: {:?}, inertia {:?}, margin {:?}, costates vs kappa {:.1e}, displacement {:.1e}",
+        so.verdict, so.inertia, so.margin, cert.costate_mismatch, cert.relative_displacement
+    );
+    // Whatever the verdict: an exact KKT point of the discretized problem near the solution,
+    // whose multipliers are the solution's costates.
+    let c = &cert.certificate;
+    assert!(c.kkt.relative_stationarity() < 1e-9 && c.kkt.feasibility < 1e-9);
+    assert!(cert.relative_displacement < 1e-3);
+    assert!(cert.costate_mismatch < 1e-2);
+    cert
+}
+
+#[test]
+fn the_sleigh_and_the_so4_body_are_certified_local_minima() {
+    use suslov::ocp::Verdict;
+    let se2 = certify_example::<suslov::model::se2::Se2>("se2_sleigh.toml");
+    assert_eq!(se2.verdict(), Verdict::Certified);
+    let so4 = certify_example::<suslov::model::so4::So4>("so4_body.toml");
+    assert_eq!(so4.verdict(), Verdict::Certified);
+}
+
+#[test]
+fn the_accessibility_rank_along_each_example_is_dim_m() {
+    for (file, dim_m) in [("se2_sleigh.toml", 4), ("so4_body.toml", 10)] {
+        let (dir, json) = solve_example(file, "rank");
+        let acc = &json["cases"][0]["extra"]["accessibility"];
+        assert_eq!(acc["dim_m"], dim_m, "{file}");
+        assert_eq!(acc["min_rank"], dim_m, "{file}: {acc}");
+        assert_eq!(acc["max_rank"], dim_m, "{file}: {acc}");
+        assert!(
+            acc["min_sigma_dim_m"].as_f64().unwrap() > 1e-6,
+            "{file}: {acc}"
+        );
+        assert!(
+            acc["max_sigma_next"].as_f64().unwrap() < 1e-9,
+            "{file}: {acc}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

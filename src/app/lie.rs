@@ -20,9 +20,13 @@ use crate::lie::{self, LieSolution, LieSolveError};
 use crate::model::Model;
 use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
 use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
+use crate::suslov::controllability::RANK_RTOL;
 use crate::suslov::verify::Verdict;
 
 use super::{finish, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
+
+/// Times along the solution at which the accessibility rank is evaluated.
+const ACCESSIBILITY_POINTS: usize = 101;
 
 /// Every file a case of this kind may write.
 fn files() -> Vec<std::path::PathBuf> {
@@ -193,6 +197,20 @@ fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) 
         .insert("omega_b".into(), serde_json::json!(sol.problem.omega_b));
     c.extra
         .insert("bc_residual".into(), serde_json::json!(d.bc_residual));
+    // The accessibility rank test along the solution (paper section 4.3, any model).
+    let rank = lie::controllability::rank_along(sol, ACCESSIBILITY_POINTS, RANK_RTOL);
+    c.extra.insert(
+        "accessibility".into(),
+        serde_json::json!({
+            "points": ACCESSIBILITY_POINTS,
+            "rtol": rank.rtol,
+            "dim_m": rank.dim_m,
+            "min_rank": rank.min_rank,
+            "max_rank": rank.max_rank,
+            "min_sigma_dim_m": rank.min_sigma_dim_m,
+            "max_sigma_next": rank.max_sigma_next,
+        }),
+    );
     c.extra.insert(
         "start".into(),
         serde_json::json!({
@@ -307,4 +325,53 @@ pub fn run_model_solve<M: Model>(
     let summary = report::Summary { cases: vec![case] };
     finish(dir, &summary, events)?;
     Ok(summary)
+}
+
+/// `suslov certify FILE` for a [`ModelFile`] of model `M`: solve, verify, certify on the
+/// solution's own mesh ([`crate::lie::certify`]); the report as for so(3).
+pub fn run_model_certify<M: Model>(
+    file: &ModelFile,
+    tolerance: Option<f64>,
+    json: Option<&Path>,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Vec<report::CertificateReport>, AppError> {
+    use crate::ocp::{NewtonOptions, SecondOrderOptions};
+    use report::CertificateReport;
+    super::prepare_certificate_json(json)?;
+    let LoadedModelProblem {
+        name,
+        problem,
+        mut options,
+    } = file.build::<M>()?;
+    if let Some(t) = tolerance {
+        options.tol = t;
+    }
+    events(AppEvent::CaseStarted { name: &name });
+    let clock = Instant::now();
+    let solved = lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e)));
+    let solve_seconds = clock.elapsed().as_secs_f64();
+    let mut report = match solved {
+        Err(e) => CertificateReport::error(&name, format!("the solve failed: {e}")),
+        Ok(sol) => {
+            let (_, verification) = lie::verify_solution(&sol);
+            let clock = Instant::now();
+            let cert = lie::certify::certify(
+                &sol,
+                &NewtonOptions::default(),
+                &SecondOrderOptions::default(),
+            );
+            let mut r = match cert {
+                Ok(c) => CertificateReport::from_certificate(&name, &c),
+                Err(e) => CertificateReport::error(&name, format!("certificate: {e}")),
+            };
+            r.certify_seconds = clock.elapsed().as_secs_f64();
+            r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
+            r
+        }
+    };
+    report.solve_seconds = solve_seconds;
+    events(AppEvent::Certified(&report));
+    let reports = vec![report];
+    super::write_certificate_json(json, &reports, events)?;
+    Ok(reports)
 }

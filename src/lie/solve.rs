@@ -87,7 +87,7 @@ impl<M: Model> LieSolution<M> {
 }
 
 /// Why [`solve`] failed.
-#[derive(Debug, thiserror::Error)]
+#[derive(thiserror::Error)]
 pub enum LieSolveError<M: Model> {
     /// The problem is invalid.
     #[error("invalid problem: {0}")]
@@ -122,6 +122,16 @@ pub enum LieSolveError<M: Model> {
     /// Invalid input reached the BVP solver (a bug in this layer).
     #[error("BVP solver rejected its input: {0}")]
     Bvp(#[from] bvp::BvpError),
+}
+
+impl<M: Model> std::fmt::Debug for LieSolveError<M> {
+    /// The message (a partial solution is summarised by its [`LieSolution`] `Debug`).
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::StageFailed { partial, .. } => write!(f, "{self} (partial: {partial:?})"),
+            _ => write!(f, "{self}"),
+        }
+    }
 }
 
 /// The index in `p` of the one weight with `role`, if the model has exactly one.

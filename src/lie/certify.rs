@@ -1,0 +1,198 @@
+//! The second-order certificate of a [`LieSolution`] of any model (a local minimum of the
+//! discretized problem, or not): the method of the so(3) layer ([`crate::suslov::certify`],
+//! whose module docs give the mathematics), written once for every model.
+//!
+//! The direct problem in classical form: state `x = [Ω, ξ]` (`2n`), control `u = ξ̇` (`n`),
+//! dynamics and running cost with their derivatives to second order from the model's
+//! generated `direct_dynamics`, `direct_cost`, `direct_hessian`; transcribed on the solution's
+//! own mesh ([`crate::ocp::Transcription`]); KKT by Newton from the indirect solution; the
+//! inertia of the KKT matrix decides ([`crate::ocp::certify`]).
+
+use std::marker::PhantomData;
+
+use crate::model::Model;
+use crate::ocp::{
+    self, Boundary, CertifyError, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
+    Transcription,
+};
+use crate::suslov::certify::SuslovCertificate;
+use crate::suslov::problem::TerminalTime;
+
+use super::path::Path;
+use super::problem::{with_buffer, LieBvp};
+use super::solve::LieSolution;
+
+/// The direct (classical state/control) form of a model's problem.
+pub struct LieOcp<'a, M: Model> {
+    params: &'a [f64],
+    desired: &'a dyn Path,
+    model: PhantomData<M>,
+}
+
+impl<'a, M: Model> LieOcp<'a, M> {
+    /// The direct problem of `sol`'s problem (its constants and desired path).
+    pub fn new(sol: &'a LieSolution<M>) -> Self {
+        Self {
+            params: sol.problem.params(),
+            desired: &*sol.problem.desired,
+            model: PhantomData,
+        }
+    }
+
+    /// `x = [Ω, ξ]`: the state's first two blocks.
+    const NX: usize = M::XIDOT.start;
+    /// `u = ξ̇`.
+    const NU: usize = M::DIM;
+    /// `z = [x, u]`.
+    const NZ: usize = M::KAPPA.start;
+}
+
+impl<M: Model> OcpProblem for LieOcp<'_, M> {
+    fn n_state(&self) -> usize {
+        Self::NX
+    }
+
+    fn n_control(&self) -> usize {
+        Self::NU
+    }
+
+    fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
+        M::direct_dynamics(z, self.params, f, f_z);
+        f_t.fill(0.0); // Suslov's equations are autonomous.
+    }
+
+    fn running_cost(&self, t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
+        let n = M::DIM;
+        with_buffer(4 * n + n, |buf| {
+            let (jet, l_d) = buf.split_at_mut(4 * n);
+            self.desired.jet_into(t, jet);
+            let l = M::direct_cost(z, self.params, &jet[..n], l_z, l_d);
+            let l_t = l_d.iter().zip(&jet[n..2 * n]).map(|(l, d)| l * d).sum();
+            (l, l_t)
+        })
+    }
+
+    fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]) {
+        let (n, nz) = (M::DIM, Self::NZ);
+        let nh = nz + 1;
+        let mut jet = vec![0.0; 4 * n];
+        self.desired.jet_into(t, &mut jet);
+        let (od, rest) = jet.split_at(n);
+        let (d1, rest) = rest.split_at(n);
+        let d2 = &rest[..n];
+        let mut h_zz = vec![0.0; nz * nz];
+        let mut h_zd = vec![0.0; nz * n];
+        let mut h_dd = vec![0.0; n * n];
+        M::direct_hessian(
+            z,
+            self.params,
+            od,
+            w,
+            lambda,
+            &mut h_zz,
+            &mut h_zd,
+            &mut h_dd,
+        );
+        let mut lz = vec![0.0; nz];
+        let mut ld = vec![0.0; n];
+        M::direct_cost(z, self.params, od, &mut lz, &mut ld);
+        // h is (nz + 1) x (nz + 1): [z, t]; t enters through Ω_d(t).
+        let (rows, last) = h.split_at_mut(nz * nh);
+        for (r, row) in rows.chunks_exact_mut(nh).enumerate() {
+            let (zz, zt) = row.split_at_mut(nz);
+            zz.copy_from_slice(&h_zz[r * nz..(r + 1) * nz]);
+            let v: f64 = h_zd[r * n..(r + 1) * n]
+                .iter()
+                .zip(d1)
+                .map(|(a, b)| a * b)
+                .sum();
+            zt[0] = v;
+            last[r] = v;
+        }
+        let mut tt = 0.0;
+        for a in 0..n {
+            tt += w * ld[a] * d2[a];
+            for b in 0..n {
+                tt += d1[a] * h_dd[a * n + b] * d1[b];
+            }
+        }
+        last[nz] = tt;
+    }
+}
+
+/// The transcription of `sol`'s problem on `sol`'s own mesh.
+pub fn transcription<'a, M: Model>(
+    ocp_problem: &'a LieOcp<'a, M>,
+    sol: &LieSolution<M>,
+) -> Result<Transcription<'a, LieOcp<'a, M>>, ocp::TranscriptionError> {
+    let p = &sol.problem;
+    let boundary = Boundary {
+        start: M::OMEGA.map(|i| (i, p.omega_a[i])).collect(),
+        end: M::OMEGA.map(|i| (i, p.omega_b[i])).collect(),
+    };
+    let horizon = match p.terminal {
+        TerminalTime::Fixed(b) => Horizon::Fixed {
+            t0: p.t0,
+            length: b - p.t0,
+        },
+        TerminalTime::Free { .. } => Horizon::Free { t0: p.t0 },
+    };
+    let mut mesh = sol.bvp.x.clone();
+    if let Some(last) = mesh.len().checked_sub(1) {
+        mesh[0] = 0.0;
+        mesh[last] = 1.0;
+    }
+    Transcription::new(ocp_problem, boundary, horizon, mesh)
+}
+
+/// Certify `sol` (see the module docs and [`crate::suslov::certify::certify`]).
+pub fn certify<M: Model>(
+    sol: &LieSolution<M>,
+    newton: &NewtonOptions,
+    opts: &SecondOrderOptions,
+) -> Result<SuslovCertificate, CertifyError> {
+    let ocp_problem = LieOcp::new(sol);
+    let tr = transcription(&ocp_problem, sol)?;
+    let values = sol.bvp.collocation_values();
+    let mut v0 = Vec::with_capacity(tr.n_var());
+    for y in values.chunks_exact(M::N_STATE) {
+        v0.extend_from_slice(&y[..M::KAPPA.start]); // [Ω, ξ, ξ̇] = z
+    }
+    if tr.length_index().is_some() {
+        v0.push(sol.t_span);
+    }
+    let size = v0.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+    let certificate = ocp::certify(&tr, v0, newton, opts)?;
+    let t_len = tr.length(&certificate.point.v);
+    let omega = tr.quadrature_weights();
+    let lam = tr.point_multipliers(&certificate.point.y);
+    let bvp = LieBvp::new(&sol.problem);
+    let nx = LieOcp::<M>::NX;
+    let (mut worst, mut scale) = (0.0_f64, 0.0_f64);
+    let mut pi = vec![0.0; nx];
+    let mut w = vec![0.0; M::N_DESIRED];
+    for p in 0..tr.n_points() {
+        let t = tr.point_time(p, sol.t_span);
+        let y = sol.state(t);
+        bvp.desired_at(t, &mut w);
+        M::classical_costates(&y, sol.problem.params(), &w, &mut pi);
+        for r in 0..nx {
+            worst = worst.max((lam[p * nx + r] / omega[p] - pi[r]).abs());
+            scale = scale.max(pi[r].abs());
+        }
+    }
+    Ok(SuslovCertificate {
+        intervals: tr.n_intervals(),
+        costate_mismatch: worst / scale.max(f64::MIN_POSITIVE),
+        free_time: tr.horizon().is_free(),
+        terminal_time: sol.problem.t0 + t_len,
+        cost: tr.objective(&certificate.point.v),
+        relative_displacement: certificate.displacement / size,
+        weakest: certificate
+            .second_order
+            .weakest_direction
+            .as_ref()
+            .map(|dv| tr.profile(&certificate.point.v, dv)),
+        certificate,
+    })
+}
