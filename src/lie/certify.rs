@@ -6,7 +6,7 @@
 //! dynamics and running cost with their derivatives to second order from the model's
 //! generated `direct_dynamics`, `direct_cost`, `direct_hessian`; transcribed on the solution's
 //! own mesh ([`crate::ocp::Transcription`]); KKT by Newton from the indirect solution; the
-//! inertia of the KKT matrix decides ([`crate::ocp::certify`]).
+//! inertia of the KKT matrix decides ([`crate::ocp::certify()`]).
 
 use std::marker::PhantomData;
 
