@@ -49,6 +49,9 @@ fn every_example_loads_and_validates() {
             config::Loaded::Other(file) => match file.model.as_str() {
                 "se2" => file.build::<suslov::model::se2::Se2>().map(|l| l.name),
                 "so4" => file.build::<suslov::model::so4::So4>().map(|l| l.name),
+                "so3_full" => file
+                    .build::<suslov::model::so3_full::So3Full>()
+                    .map(|l| l.name),
                 other => panic!("add model {other} to this test"),
             }
             .unwrap_or_else(|e| panic!("{e}")),

@@ -274,7 +274,7 @@ fn bad_model_files_get_messages_that_name_the_field_and_the_fix() {
         (
             "unknown-model",
             Box::new(|s: &str| s.replace("model = \"se2\"", "model = \"se3\"")),
-            &["model", "se2, so3, so4"],
+            &["model", "se2, so3, so3_full, so4"],
         ),
         (
             "missing-weight",
@@ -396,4 +396,51 @@ fn the_accessibility_rank_along_each_example_is_dim_m() {
         );
         let _ = std::fs::remove_dir_all(&dir);
     }
+}
+
+#[test]
+fn so3_full_with_principal_axes_is_the_papers_problem_and_its_example_solves() {
+    use suslov::model::so3_full::So3Full;
+    // The paper's problem through the full-inertia model with zero products of inertia:
+    // the same b and J as the so(3) layer (the derivation differs: I^-1 enters as derived
+    // constants instead of 1/I_k).
+    let p = paper::problem(1.0);
+    let by_name: HashMap<&str, f64> = HashMap::from([
+        ("I11", 1.0),
+        ("I22", 2.0),
+        ("I33", 3.0),
+        ("I12", 0.0),
+        ("I13", 0.0),
+        ("I23", 0.0),
+        ("alpha", p.weights.alpha),
+        ("beta", p.weights.beta),
+        ("gamma", p.weights.gamma),
+        ("eta", p.weights.eta),
+        ("delta", p.weights.delta),
+    ]);
+    assert_eq!(p.inertia.diag().as_slice(), &[1.0, 2.0, 3.0]);
+    let user: Vec<f64> = So3Full::PARAM_NAMES[..So3Full::N_USER_PARAM]
+        .iter()
+        .map(|n| by_name[n])
+        .collect();
+    let problem = Problem::<So3Full>::new(
+        &user,
+        p.t0,
+        p.omega_a.as_slice().to_vec(),
+        p.omega_b.as_slice().to_vec(),
+        p.terminal,
+        Arc::new(So3Path(p.desired.clone())),
+    )
+    .unwrap();
+    let sol = lie::solve(&problem, &SolveOptions::default(), &mut |_| {}).unwrap();
+    let (d, v) = lie::verify_solution(&sol);
+    assert!(v.passed(), "{:?}", v.verdict());
+    let (b_ref, j_ref) = (11.359616203476826, 15.394760771339984);
+    assert!((sol.terminal_time() - b_ref).abs() <= 1e-9 * b_ref);
+    assert!((d.cost - j_ref).abs() <= 1e-9 * j_ref);
+    // A body with products of inertia, from its file.
+    let (dir, json) = solve_example("so3_full_body.toml", "full");
+    assert_eq!(json["cases"][0]["extra"]["model"], "so3_full");
+    check_trajectory::<So3Full>(&dir, &json);
+    let _ = std::fs::remove_dir_all(&dir);
 }
