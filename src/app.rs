@@ -652,6 +652,39 @@ pub(crate) fn write_certificate_json(
     Ok(())
 }
 
+/// `suslov controllability --along paper|CONFIG` for a file of any model: so(3) files (and
+/// `paper`) through [`case_jobs`] and [`run_rank_along`], the other models through
+/// [`lie::run_model_rank_along`].
+pub fn run_rank_along_any(
+    config: Option<&Path>,
+    points: usize,
+    rtol: f64,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<RankAlong, AppError> {
+    use crate::suslov::controllability as c;
+    let along = |e: AppError| {
+        AppError::InvalidArgument(format!("--along (`paper` or a problem file): {e}"))
+    };
+    if let Some(path) = config {
+        let loaded = config::load_any(path).map_err(|e| along(e.into()))?;
+        if let (config::Loaded::Other(file), _) = loaded {
+            if !(2..=c::MAX_STATES).contains(&points) {
+                return Err(AppError::InvalidArgument(format!(
+                    "--points must be between 2 and {} (times sampled along the trajectory), \
+                     got {points}",
+                    c::MAX_STATES
+                )));
+            }
+            c::check_rtol(rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+            return crate::model::with_model!(file.model.as_str(), M => {
+                lie::run_model_rank_along::<M>(&file, points, rtol, events)
+            }, _ => unreachable!("config::load_any returns generated model names only"));
+        }
+    }
+    let jobs = case_jobs(config, None).map_err(along)?;
+    run_rank_along(&jobs, points, rtol, events)
+}
+
 /// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the
 /// accessibility rank test ([`crate::suslov::controllability`]) at `points` times along the
 /// optimal trajectory. Checks `points` and `rtol` before any work.

@@ -342,15 +342,8 @@ fn main() -> ExitCode {
         Command::Controllability(a) if a.along.is_some() => {
             let along = a.along.as_deref().unwrap_or(std::path::Path::new("paper"));
             let config = (along != std::path::Path::new("paper")).then_some(along);
-            let result = app::case_jobs(config, None)
-                .map_err(|e| {
-                    app::AppError::InvalidArgument(format!(
-                        "--along (`paper` or a problem file): {e}"
-                    ))
-                })
-                .and_then(|jobs| {
-                    app::run_rank_along(&jobs, a.points, a.rtol, &mut |e| reporter.event(e))
-                });
+            let result =
+                app::run_rank_along_any(config, a.points, a.rtol, &mut |e| reporter.event(e));
             match result {
                 Ok(r) => {
                     out(&r.text);

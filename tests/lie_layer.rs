@@ -444,3 +444,20 @@ fn so3_full_with_principal_axes_is_the_papers_problem_and_its_example_solves() {
     check_trajectory::<So3Full>(&dir, &json);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn controllability_along_a_model_file_reports_rank_dim_m() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml");
+    let r = suslov::app::run_rank_along_any(Some(&path), 51, 1e-9, &mut |_| {}).unwrap();
+    assert!(r.all_accessible, "{}", r.text);
+    assert!(r.text.contains("model se2"), "{}", r.text);
+    assert!(
+        r.text.contains("rank of V = 4 at all 51 times"),
+        "{}",
+        r.text
+    );
+    assert!(r.text.contains("dim M = 4"), "{}", r.text);
+    // Bad arguments are refused before any work.
+    assert!(suslov::app::run_rank_along_any(Some(&path), 1, 1e-9, &mut |_| {}).is_err());
+    assert!(suslov::app::run_rank_along_any(Some(&path), 51, 0.5, &mut |_| {}).is_err());
+}

@@ -209,6 +209,7 @@ fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) 
             "max_rank": rank.max_rank,
             "min_sigma_dim_m": rank.min_sigma_dim_m,
             "max_sigma_next": rank.max_sigma_next,
+            "max_constraint": rank.max_constraint,
         }),
     );
     c.extra.insert(
@@ -374,4 +375,65 @@ pub fn run_model_certify<M: Model>(
     let reports = vec![report];
     super::write_certificate_json(json, &reports, events)?;
     Ok(reports)
+}
+
+/// `suslov controllability --along FILE` for a [`ModelFile`] of model `M`: solve, verify, and
+/// test the accessibility rank at `points` times along the solution
+/// ([`crate::lie::controllability`]).
+pub fn run_model_rank_along<M: Model>(
+    file: &ModelFile,
+    points: usize,
+    rtol: f64,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<super::RankAlong, AppError> {
+    let LoadedModelProblem {
+        name,
+        problem,
+        options,
+    } = file.build::<M>()?;
+    events(AppEvent::CaseStarted { name: &name });
+    let sol = match lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e))) {
+        Ok(sol) => sol,
+        Err(e) => {
+            events(AppEvent::CaseEnded { name: &name });
+            return Ok(super::RankAlong {
+                text: format!("case {name}: the solve failed: {e}\n"),
+                all_accessible: false,
+            });
+        }
+    };
+    let mut text = String::new();
+    let (_, verification) = lie::verify_solution(&sol);
+    let mut all_accessible = true;
+    if let Verdict::Unverified { reason } = verification.verdict() {
+        all_accessible = false;
+        text += &format!(
+            "case {name}: the solution did not pass its a-posteriori checks ({reason}); the \
+             rank test below runs along it anyway\n"
+        );
+    }
+    let r = lie::controllability::rank_along(&sol, points, rtol);
+    all_accessible &= r.min_rank == r.dim_m && r.max_rank == r.dim_m;
+    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    text += &format!(
+        "case {name} (model {}): rank of V {} at all {points} times of [{a}, {b:.6}] (dim M = \
+         {})\n  smallest sigma_(dim M)/sigma_1 {:.4e}; largest sigma_(dim M + 1)/sigma_1 \
+         {:.1e}; the solution's max |<Omega, xi>|/(|Omega| |xi|) {:.1e} (xi projected onto \
+         Omega^perp for the test)\n",
+        M::NAME,
+        if r.min_rank == r.max_rank {
+            format!("= {}", r.min_rank)
+        } else {
+            format!("in {}..={}", r.min_rank, r.max_rank)
+        },
+        r.dim_m,
+        r.min_sigma_dim_m,
+        r.max_sigma_next,
+        r.max_constraint,
+    );
+    events(AppEvent::CaseEnded { name: &name });
+    Ok(super::RankAlong {
+        text,
+        all_accessible,
+    })
 }
