@@ -207,6 +207,11 @@ fn the_steered_sleigh_solves_from_its_file_and_its_planar_path_is_right() {
             .unwrap()
             < 1e-8
     );
+    // The path figure: a PNG of the requested size.
+    let png = std::fs::read(dir.join("path.png")).unwrap();
+    assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+    assert_eq!(u32::from_be_bytes(png[16..20].try_into().unwrap()), 1200);
+    assert_eq!(u32::from_be_bytes(png[20..24].try_into().unwrap()), 900);
     let _ = std::fs::remove_dir_all(&dir);
 }
 
@@ -218,6 +223,8 @@ fn the_generalised_rigid_body_on_so4_solves_from_its_file() {
     check_trajectory::<So4>(&dir, &json);
     // The attitude in motion.csv stays in SO(4): gᵀg = 1.
     let motion = read_csv(&dir.join("motion.csv"));
+    // Not planar rigid motions: no (x, y, theta), no path figure.
+    assert!(!motion.contains_key("x") && !dir.join("path.png").exists());
     let rows = motion["t"].len();
     for r in [0, rows / 2, rows - 1] {
         let g = |i: usize, j: usize| motion[&format!("g{}{}", i + 1, j + 1)][r];

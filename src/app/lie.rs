@@ -5,7 +5,9 @@
 //! DIR/problem.toml          a copy of the input
 //! DIR/trajectory.csv        t, the model's state names (Ω, ξ, ξ̇, κ), Ω_d on a uniform grid
 //! DIR/motion.csv            t, g(t) row-major (ġ = g Ω̂, g(a) = identity), when the model
-//!                           has a matrix representation; for se(2) also x, y, theta
+//!                           has a matrix representation; for planar rigid motions (se(2))
+//!                           also x, y, theta
+//! DIR/path.png              for planar rigid motions: the path (x, y) with headings θ
 //! DIR/summary.json          one case, last
 //! ```
 //!
@@ -25,6 +27,9 @@ use crate::suslov::verify::Verdict;
 
 use super::{finish, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
 
+/// Heading ticks drawn along the planar path (`path.png`).
+const PATH_HEADINGS: usize = 25;
+
 /// Times along the solution at which the accessibility rank is evaluated.
 const ACCESSIBILITY_POINTS: usize = 101;
 
@@ -35,6 +40,7 @@ fn files() -> Vec<std::path::PathBuf> {
         "trajectory.unverified.csv",
         "trajectory.partial.csv",
         "motion.csv",
+        "path.png",
     ]
     .iter()
     .map(Into::into)
@@ -75,12 +81,27 @@ fn trajectory_csv<M: Model>(sol: &LieSolution<M>, points: usize) -> String {
     s
 }
 
-/// `t, g11, g12, …` (and for a 3×3 representation of se(2): `x, y, theta`), with the
-/// reconstruction's step-doubling error estimate.
-fn motion_csv<M: Model>(
-    sol: &LieSolution<M>,
-    points: usize,
-) -> Result<Option<(String, f64)>, String> {
+/// The reconstructed motion: `motion.csv` (`t, g11, g12, …`, and for se(2) `x, y, theta`), the
+/// reconstruction's step-doubling error estimate, and for se(2) the planar path.
+struct Motion {
+    csv: String,
+    error_estimate: f64,
+    planar: Option<[Vec<f64>; 3]>,
+}
+
+/// Whether the representation is of planar rigid motions: `3 × 3` matrices with a zero last
+/// row and an antisymmetric top-left `2 × 2` block (se(2) in homogeneous coordinates), so that
+/// `g = [[cos θ, −sin θ, x], [sin θ, cos θ, y], [0, 0, 1]]`.
+fn is_planar_rigid(k: usize, flat: &[f64]) -> bool {
+    k == 3
+        && flat.chunks_exact(9).all(|e| {
+            e[6] == 0.0 && e[7] == 0.0 && e[8] == 0.0 && e[0] == 0.0 && e[4] == 0.0 && e[1] == -e[3]
+        })
+}
+
+/// The reconstructed motion `ġ = g Ω̂`, `g(a) = 1` (see [`Motion`]); `None` without a matrix
+/// representation.
+fn motion<M: Model>(sol: &LieSolution<M>, points: usize) -> Result<Option<Motion>, String> {
     let Some((k, flat)) = M::REPRESENTATION else {
         return Ok(None);
     };
@@ -109,7 +130,7 @@ fn motion_csv<M: Model>(
         ..Default::default()
     };
     let rec = reconstruct(&rep, &identity, &times, omega, &opts).map_err(|e| e.to_string())?;
-    let planar = M::NAME == "se2";
+    let planar = is_planar_rigid(k, flat);
     let mut header = vec!["t".to_string()];
     for r in 1..=k {
         for c in 1..=k {
@@ -121,7 +142,7 @@ fn motion_csv<M: Model>(
     }
     let mut s = header.join(",");
     s.push('\n');
-    let mut theta_prev: Option<f64> = None;
+    let mut path: [Vec<f64>; 3] = Default::default();
     for (i, t) in times.iter().enumerate() {
         let g = rec.at(i);
         csv_number(&mut s, *t);
@@ -130,21 +151,25 @@ fn motion_csv<M: Model>(
             csv_number(&mut s, *v);
         }
         if planar {
-            // g = [[cos θ, −sin θ, x], [sin θ, cos θ, y], [0, 0, 1]]; θ unwrapped.
+            // θ unwrapped (continuous in t).
             let mut theta = g[3].atan2(g[0]);
-            if let Some(prev) = theta_prev {
+            if let Some(prev) = path[2].last() {
                 let turns = ((prev - theta) / std::f64::consts::TAU).round();
                 theta += turns * std::f64::consts::TAU;
             }
-            theta_prev = Some(theta);
-            for v in [g[2], g[5], theta] {
+            for (col, v) in path.iter_mut().zip([g[2], g[5], theta]) {
                 s.push(',');
                 csv_number(&mut s, v);
+                col.push(v);
             }
         }
         s.push('\n');
     }
-    Ok(Some((s, rec.error_estimate)))
+    Ok(Some(Motion {
+        csv: s,
+        error_estimate: rec.error_estimate,
+        planar: planar.then_some(path),
+    }))
 }
 
 fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) {
@@ -250,8 +275,8 @@ pub fn run_model_solve<M: Model>(
     events(AppEvent::CaseStarted { name: &name });
     let clock = Instant::now();
     let result = lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e)));
-    let mut write = |dir: &mut OutputDir, file: &str, text: &str| -> Result<(), AppError> {
-        let path = dir.write(file, text.as_bytes())?;
+    let mut write = |dir: &mut OutputDir, file: &str, bytes: &[u8]| -> Result<(), AppError> {
+        let path = dir.write(file, bytes)?;
         events(AppEvent::Wrote(&path));
         Ok(())
     };
@@ -263,13 +288,31 @@ pub fn run_model_solve<M: Model>(
             } else {
                 "trajectory.unverified.csv"
             };
-            write(&mut dir, stem, &trajectory_csv(&sol, OUTPUT_POINTS))?;
+            write(
+                &mut dir,
+                stem,
+                trajectory_csv(&sol, OUTPUT_POINTS).as_bytes(),
+            )?;
             if verified {
-                match motion_csv(&sol, OUTPUT_POINTS) {
-                    Ok(Some((csv, err))) => {
-                        write(&mut dir, "motion.csv", &csv)?;
-                        c.extra
-                            .insert("motion_error_estimate".into(), serde_json::json!(err));
+                match motion(&sol, OUTPUT_POINTS) {
+                    Ok(Some(m)) => {
+                        write(&mut dir, "motion.csv", m.csv.as_bytes())?;
+                        c.extra.insert(
+                            "motion_error_estimate".into(),
+                            serde_json::json!(m.error_estimate),
+                        );
+                        if let Some([x, y, theta]) = &m.planar {
+                            let title = format!("{name}: the path in the plane");
+                            let png = report::render_planar_path_png(
+                                &title,
+                                x,
+                                y,
+                                theta,
+                                PATH_HEADINGS,
+                                (1200, 900),
+                            )?;
+                            write(&mut dir, "path.png", &png)?;
+                        }
                     }
                     Ok(None) => {}
                     Err(e) => {
@@ -298,7 +341,7 @@ pub fn run_model_solve<M: Model>(
             write(
                 &mut dir,
                 "trajectory.partial.csv",
-                &trajectory_csv(&partial, OUTPUT_POINTS),
+                trajectory_csv(&partial, OUTPUT_POINTS).as_bytes(),
             )?;
             c
         }

@@ -1073,6 +1073,118 @@ fn draw_omega_3d<DB: DrawingBackend>(
     Ok(())
 }
 
+/// The planar path of a body (e.g. the steered sleigh on SE(2)): its reference point
+/// `(x(t), y(t))` with equal axis scales, start (green) and end (red) markers, and the body's
+/// heading `θ(t)` drawn as short ticks at `headings` evenly spaced times. PNG, `size` pixels.
+pub fn render_planar_path_png(
+    title: &str,
+    x: &[f64],
+    y: &[f64],
+    theta: &[f64],
+    headings: usize,
+    size: (u32, u32),
+) -> Result<Vec<u8>, ReportError> {
+    let n = x.len();
+    if n < 2 || y.len() != n || theta.len() != n {
+        return Err(ReportError::InvalidInput(format!(
+            "a planar path needs >= 2 points and as many x, y, theta ({}, {}, {})",
+            x.len(),
+            y.len(),
+            theta.len()
+        )));
+    }
+    if let Some(v) = x.iter().chain(y).chain(theta).find(|v| !v.is_finite()) {
+        return Err(ReportError::InvalidInput(format!(
+            "the planar path has a non-finite value {v}"
+        )));
+    }
+    let (w, h) = size;
+    if !(200..=8000).contains(&w) || !(150..=8000).contains(&h) {
+        return Err(ReportError::InvalidInput(format!(
+            "figure size {w}x{h} outside 200x150 .. 8000x8000"
+        )));
+    }
+    let plot_error = |message: String| ReportError::Plot {
+        path: PathBuf::from("path"),
+        message,
+    };
+    ensure_font().map_err(plot_error)?;
+    // Equal scales: the data box grown to the plot area's aspect ratio.
+    let (x0, x1) = padded(finite_range(x.iter()).unwrap_or((-1.0, 1.0)));
+    let (y0, y1) = padded(finite_range(y.iter()).unwrap_or((-1.0, 1.0)));
+    let aspect = f64::from(w) / f64::from(h);
+    let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
+    let half_w = (0.5 * (x1 - x0)).max(0.5 * (y1 - y0) * aspect);
+    let half_h = half_w / aspect;
+    let (xr, yr) = ((cx - half_w, cx + half_w), (cy - half_h, cy + half_h));
+    let tick = 0.04 * (2.0 * half_w);
+    let (sw, sh) = (w * SUPERSAMPLE, h * SUPERSAMPLE);
+    let mut big = vec![0u8; sw as usize * sh as usize * 3];
+    {
+        let root = BitMapBackend::with_buffer(&mut big, (sw, sh)).into_drawing_area();
+        let f = Fonts::for_size((sw, sh));
+        let draw = || -> Result<(), DrawingAreaErrorKind<_>> {
+            root.fill(&WHITE)?;
+            let mut chart = ChartBuilder::on(&root)
+                .caption(title, (FAMILY, f.title))
+                .margin(f.label)
+                .x_label_area_size(3.0 * f.label)
+                .y_label_area_size(4.0 * f.label)
+                .build_cartesian_2d(xr.0..xr.1, yr.0..yr.1)?;
+            chart
+                .configure_mesh()
+                .x_desc("x")
+                .y_desc("y")
+                .label_style((FAMILY, f.label))
+                .axis_desc_style((FAMILY, f.desc))
+                .draw()?;
+            let line = ShapeStyle::from(&OMEGA_COLOR).stroke_width(3 * SUPERSAMPLE);
+            chart
+                .draw_series(LineSeries::new(
+                    x.iter().zip(y).map(|(a, b)| (*a, *b)),
+                    line,
+                ))?
+                .label("reference point (x, y)")
+                .legend(move |(px, py)| {
+                    PathElement::new(vec![(px, py), (px + 30, py)], OMEGA_COLOR)
+                });
+            let heading = ShapeStyle::from(&XI_COLOR).stroke_width(2 * SUPERSAMPLE);
+            let ticks: Vec<PathElement<(f64, f64)>> = (0..headings.max(2))
+                .map(|k| {
+                    let i = k * (n - 1) / (headings.max(2) - 1);
+                    let (a, b) = (x[i], y[i]);
+                    PathElement::new(
+                        vec![
+                            (a, b),
+                            (a + tick * theta[i].cos(), b + tick * theta[i].sin()),
+                        ],
+                        heading,
+                    )
+                })
+                .collect();
+            chart
+                .draw_series(ticks)?
+                .label("body axis e1 (heading theta)")
+                .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 30, py)], XI_COLOR));
+            let r = 6 * SUPERSAMPLE as i32;
+            chart.draw_series([
+                Circle::new((x[0], y[0]), r, START_COLOR.filled()),
+                Circle::new((x[n - 1], y[n - 1]), r, END_COLOR.filled()),
+            ])?;
+            chart
+                .configure_series_labels()
+                .label_font((FAMILY, f.legend))
+                .background_style(WHITE.mix(0.8))
+                .border_style(BLACK)
+                .draw()?;
+            root.present()?;
+            Ok(())
+        };
+        draw().map_err(|e| plot_error(e.to_string()))?;
+    }
+    encode_png(&downsample(&big, w, h, SUPERSAMPLE), w, h).map_err(plot_error)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

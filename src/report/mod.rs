@@ -54,7 +54,8 @@ pub use csv::{
 };
 pub use error::ReportError;
 pub use figures::{
-    render_figure_bytes, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
+    render_figure_bytes, render_planar_path_png, write_case_figures, write_figure, Figure,
+    FigureFormat, FigureOptions,
 };
 pub use outdir::{
     belongs_to_a_run, OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE,
