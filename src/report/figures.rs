@@ -1074,26 +1074,26 @@ fn draw_omega_3d<DB: DrawingBackend>(
 }
 
 /// The planar path of a body (e.g. the steered sleigh on SE(2)): its reference point
-/// `(x(t), y(t))` with equal axis scales, start (green) and end (red) markers, and the body's
+/// `(x(t), y(t))` (`xs`, `ys`) with equal axis scales, start (green) and end (red) markers, and the body's
 /// heading `θ(t)` drawn as short ticks at `headings` evenly spaced times. PNG, `size` pixels.
 pub fn render_planar_path_png(
     title: &str,
-    x: &[f64],
-    y: &[f64],
+    xs: &[f64],
+    ys: &[f64],
     theta: &[f64],
     headings: usize,
     size: (u32, u32),
 ) -> Result<Vec<u8>, ReportError> {
-    let n = x.len();
-    if n < 2 || y.len() != n || theta.len() != n {
+    let n = xs.len();
+    if n < 2 || ys.len() != n || theta.len() != n {
         return Err(ReportError::InvalidInput(format!(
             "a planar path needs >= 2 points and as many x, y, theta ({}, {}, {})",
-            x.len(),
-            y.len(),
+            xs.len(),
+            ys.len(),
             theta.len()
         )));
     }
-    if let Some(v) = x.iter().chain(y).chain(theta).find(|v| !v.is_finite()) {
+    if let Some(v) = xs.iter().chain(ys).chain(theta).find(|v| !v.is_finite()) {
         return Err(ReportError::InvalidInput(format!(
             "the planar path has a non-finite value {v}"
         )));
@@ -1110,8 +1110,8 @@ pub fn render_planar_path_png(
     };
     ensure_font().map_err(plot_error)?;
     // Equal scales: the data box grown to the plot area's aspect ratio.
-    let (x0, x1) = padded(finite_range(x.iter()).unwrap_or((-1.0, 1.0)));
-    let (y0, y1) = padded(finite_range(y.iter()).unwrap_or((-1.0, 1.0)));
+    let (x0, x1) = padded(finite_range(xs.iter()).unwrap_or((-1.0, 1.0)));
+    let (y0, y1) = padded(finite_range(ys.iter()).unwrap_or((-1.0, 1.0)));
     let aspect = f64::from(w) / f64::from(h);
     let (cx, cy) = (0.5 * (x0 + x1), 0.5 * (y0 + y1));
     let half_w = (0.5 * (x1 - x0)).max(0.5 * (y1 - y0) * aspect);
@@ -1141,7 +1141,7 @@ pub fn render_planar_path_png(
             let line = ShapeStyle::from(&OMEGA_COLOR).stroke_width(3 * SUPERSAMPLE);
             chart
                 .draw_series(LineSeries::new(
-                    x.iter().zip(y).map(|(a, b)| (*a, *b)),
+                    xs.iter().zip(ys).map(|(a, b)| (*a, *b)),
                     line,
                 ))?
                 .label("reference point (x, y)")
@@ -1152,7 +1152,7 @@ pub fn render_planar_path_png(
             let ticks: Vec<PathElement<(f64, f64)>> = (0..headings.max(2))
                 .map(|k| {
                     let i = k * (n - 1) / (headings.max(2) - 1);
-                    let (a, b) = (x[i], y[i]);
+                    let (a, b) = (xs[i], ys[i]);
                     PathElement::new(
                         vec![
                             (a, b),
@@ -1168,8 +1168,8 @@ pub fn render_planar_path_png(
                 .legend(move |(px, py)| PathElement::new(vec![(px, py), (px + 30, py)], XI_COLOR));
             let r = 6 * SUPERSAMPLE as i32;
             chart.draw_series([
-                Circle::new((x[0], y[0]), r, START_COLOR.filled()),
-                Circle::new((x[n - 1], y[n - 1]), r, END_COLOR.filled()),
+                Circle::new((xs[0], ys[0]), r, START_COLOR.filled()),
+                Circle::new((xs[n - 1], ys[n - 1]), r, END_COLOR.filled()),
             ])?;
             chart
                 .configure_series_labels()
