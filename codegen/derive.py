@@ -183,7 +183,7 @@ class Optimality:
                     if entry.free_symbols & set(flat):
                         raise AssertionError("top-derivative system is not linear")
         zero = {v: 0 for v in flat}
-        rhs = [-e.subs(zero) for e in eqs]
+        rhs = [-e.xreplace(zero) for e in eqs]
         (M11, M12, M13), (M21, M22, M23), (M31, M32, M33) = blocks
         check_zero(M13, "d/dt q does not contain kappa'")
         check_zero(M22, "EL_Om does not contain xi''")

@@ -118,7 +118,8 @@ class Program:
         thousands of assignments."""
         from sympy.printing.pycode import MpmathPrinter
 
-        pr = MpmathPrinter({"fully_qualified_modules": False, "inline": True})
+        # order="none": terms in their stored order (sorting them for print dominated the time)
+        pr = MpmathPrinter({"fully_qualified_modules": False, "inline": True, "order": "none"})
         known = self.inputs + self.constants
         names = {}
 
