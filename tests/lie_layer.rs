@@ -468,3 +468,58 @@ fn controllability_along_a_model_file_reports_rank_dim_m() {
     assert!(suslov::app::run_rank_along_any(Some(&path), 1, 1e-9, &mut |_| {}).is_err());
     assert!(suslov::app::run_rank_along_any(Some(&path), 51, 0.5, &mut |_| {}).is_err());
 }
+
+#[test]
+fn a_sampled_desired_path_of_another_model_loads_projected_and_checked() {
+    use suslov::config::{load_any, Loaded};
+    use suslov::model::se2::Se2;
+    let dir = scratch("samples");
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml"),
+    )
+    .unwrap();
+    let text = src.replace("gamma = 0.0", "gamma = 1.0").replace(
+        "kind = \"segment\"",
+        "kind = \"samples\"\nfile = \"od.csv\"",
+    );
+    std::fs::write(dir.join("p.toml"), &text).unwrap();
+    // Samples along the straight line from omega_a to omega_b (off the level set in between:
+    // the path is projected onto it), with a header and a comment.
+    let (a, b) = (
+        [1.0, 0.5, 0.0],
+        [-0.3872983346207417, 0.7745966692414834, 0.232379000772445],
+    );
+    let mut csv = String::from("# t, omega, v1, v2\nt,w,v1,v2\n");
+    for k in 0..=8 {
+        let s = k as f64 / 8.0;
+        let v: Vec<f64> = (0..3).map(|i| a[i] + s * (b[i] - a[i])).collect();
+        csv += &format!("{},{},{},{}\n", 4.0 * s, v[0], v[1], v[2]);
+    }
+    std::fs::write(dir.join("od.csv"), &csv).unwrap();
+    let Loaded::Other(file) = load_any(&dir.join("p.toml")).unwrap().0 else {
+        panic!("an se2 file")
+    };
+    let loaded = file.build::<Se2>().unwrap();
+    let problem = &loaded.problem;
+    let set = problem.level_set();
+    let mut jet = vec![0.0; 12];
+    for t in [0.0, 0.7, 2.0, 3.3, 4.0] {
+        problem.desired.jet_into(t, &mut jet);
+        assert!(set.relative_mismatch(&jet[..3]).abs() < 1e-14, "t = {t}");
+    }
+    problem.desired.jet_into(0.0, &mut jet);
+    for i in 0..3 {
+        assert!((jet[i] - a[i]).abs() < 1e-12);
+    }
+    // A row with the wrong number of columns names the file, the line and the basis.
+    std::fs::write(dir.join("od.csv"), "0,1,0.5\n1,1,0.5\n").unwrap();
+    let Loaded::Other(file) = load_any(&dir.join("p.toml")).unwrap().0 else {
+        panic!("an se2 file")
+    };
+    let err = file.build::<Se2>().unwrap_err().to_string();
+    for w in ["desired.file", "line 1", "3 columns", "e0, e1, e2"] {
+        assert!(err.contains(w), "{w:?} not in {err:?}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
