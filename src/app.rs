@@ -496,16 +496,20 @@ pub struct CaseJob {
 /// `tolerance` overrides the final BVP tolerance (the mesh the certificate runs on).
 pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<CaseJob>, AppError> {
     check_tolerance(tolerance)?;
-    let mut jobs = match config {
-        Some(path) => {
-            let loaded = config::load(path)?;
-            vec![CaseJob {
-                name: loaded.name,
-                problem: loaded.problem,
-                options: loaded.options,
-                warnings: loaded.warnings,
-            }]
-        }
+    let loaded = config.map(config::load).transpose()?;
+    Ok(so3_jobs(loaded, tolerance))
+}
+
+/// The jobs of a checked so(3) file, or the paper's two cases (`None`), with the final
+/// tolerance overridden by `tolerance` (already checked).
+fn so3_jobs(loaded: Option<config::LoadedProblem>, tolerance: Option<f64>) -> Vec<CaseJob> {
+    let mut jobs = match loaded {
+        Some(loaded) => vec![CaseJob {
+            name: loaded.name,
+            problem: loaded.problem,
+            options: loaded.options,
+            warnings: loaded.warnings,
+        }],
         None => paper::CASES
             .iter()
             .map(|c| CaseJob {
@@ -519,7 +523,26 @@ pub fn case_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<Vec<Ca
     if let Some(t) = tolerance {
         jobs.iter_mut().for_each(|j| j.options.tol = t);
     }
-    Ok(jobs)
+    jobs
+}
+
+/// `paper` (no file), or a problem file of any model read once: so(3) files become
+/// [`CaseJob`]s, the others stay [`config::ModelFile`]s for their model's type.
+enum AnyJobs {
+    So3(Vec<CaseJob>),
+    Other(config::ModelFile),
+}
+
+fn any_jobs(config: Option<&Path>, tolerance: Option<f64>) -> Result<AnyJobs, AppError> {
+    check_tolerance(tolerance)?;
+    let loaded = match config {
+        None => None,
+        Some(path) => match config::load_any(path)?.0 {
+            config::Loaded::Other(file) => return Ok(AnyJobs::Other(file)),
+            config::Loaded::So3(loaded) => Some(loaded),
+        },
+    };
+    Ok(AnyJobs::So3(so3_jobs(loaded, tolerance)))
 }
 
 /// `suslov certify`: solve each case and certify the solution on its own mesh. A failed
@@ -579,16 +602,12 @@ pub fn run_certify_any(
     json: Option<&Path>,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
-    if let Some(path) = config {
-        if let (config::Loaded::Other(file), _) = config::load_any(path)? {
-            check_tolerance(tolerance)?;
-            return crate::model::with_model!(file.model.as_str(), M => {
-                lie::run_model_certify::<M>(&file, tolerance, json, events)
-            }, _ => unreachable!("config::load_any returns generated model names only"));
-        }
+    match any_jobs(config, tolerance)? {
+        AnyJobs::So3(jobs) => run_certify(&jobs, json, events),
+        AnyJobs::Other(file) => crate::model::with_model!(file.model.as_str(), M => {
+            lie::run_model_certify::<M>(&file, tolerance, json, events)
+        }, _ => unreachable!("config::load_any returns generated model names only")),
     }
-    let jobs = case_jobs(config, tolerance)?;
-    run_certify(&jobs, json, events)
 }
 
 /// `--tolerance`, if given, within [`config::TOLERANCE_RANGE`].
@@ -661,28 +680,30 @@ pub fn run_rank_along_any(
     rtol: f64,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<RankAlong, AppError> {
-    use crate::suslov::controllability as c;
-    let along = |e: AppError| {
+    check_rank_arguments(points, rtol)?;
+    let jobs = any_jobs(config, None).map_err(|e| {
         AppError::InvalidArgument(format!("--along (`paper` or a problem file): {e}"))
-    };
-    if let Some(path) = config {
-        let loaded = config::load_any(path).map_err(|e| along(e.into()))?;
-        if let (config::Loaded::Other(file), _) = loaded {
-            if !(2..=c::MAX_STATES).contains(&points) {
-                return Err(AppError::InvalidArgument(format!(
-                    "--points must be between 2 and {} (times sampled along the trajectory), \
-                     got {points}",
-                    c::MAX_STATES
-                )));
-            }
-            c::check_rtol(rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
-            return crate::model::with_model!(file.model.as_str(), M => {
-                lie::run_model_rank_along::<M>(&file, points, rtol, events)
-            }, _ => unreachable!("config::load_any returns generated model names only"));
-        }
+    })?;
+    match jobs {
+        AnyJobs::So3(jobs) => run_rank_along(&jobs, points, rtol, events),
+        AnyJobs::Other(file) => crate::model::with_model!(file.model.as_str(), M => {
+            lie::run_model_rank_along::<M>(&file, points, rtol, events)
+        }, _ => unreachable!("config::load_any returns generated model names only")),
     }
-    let jobs = case_jobs(config, None).map_err(along)?;
-    run_rank_along(&jobs, points, rtol, events)
+}
+
+/// `--points` (times along the trajectory) and `--rtol` of the rank test along a solution.
+fn check_rank_arguments(points: usize, rtol: f64) -> Result<(), AppError> {
+    use crate::suslov::controllability as c;
+    if !(2..=c::MAX_STATES).contains(&points) {
+        return Err(AppError::InvalidArgument(format!(
+            "--points must be between 2 and {} (times sampled along the trajectory), got \
+             {points}",
+            c::MAX_STATES
+        )));
+    }
+    c::check_rtol(rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+    Ok(())
 }
 
 /// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the
@@ -695,14 +716,7 @@ pub fn run_rank_along(
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<RankAlong, AppError> {
     use crate::suslov::controllability as c;
-    if !(2..=c::MAX_STATES).contains(&points) {
-        return Err(AppError::InvalidArgument(format!(
-            "--points must be between 2 and {} (times sampled along the trajectory), got \
-             {points}",
-            c::MAX_STATES
-        )));
-    }
-    c::check_rtol(rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+    check_rank_arguments(points, rtol)?;
     let mut text = String::new();
     let mut all_accessible = true;
     for job in jobs {

@@ -311,7 +311,7 @@ fn exact<const N: usize>(
             field: field.to_string(),
             found,
             expected: N,
-            meaning,
+            meaning: meaning.to_string(),
         }),
     }
 }
@@ -532,7 +532,7 @@ pub enum ConfigError {
         /// How many the key takes.
         expected: usize,
         /// What the entries are, e.g. `"I1, I2, I3"`.
-        meaning: &'static str,
+        meaning: String,
     },
     /// A required key is missing.
     #[error("`{field}` is missing: {fix}")]
@@ -829,6 +829,14 @@ pub fn load(path: &Path) -> Result<LoadedProblem, ConfigError> {
 /// [`load`], and the file's text as it was read and checked (without a byte order mark), for
 /// a copy of the input next to the results: one bounded read, so the copy is what was solved.
 pub fn load_with_text(path: &Path) -> Result<(LoadedProblem, String), ConfigError> {
+    let text = read_problem_text(path)?;
+    let loaded = parse_so3(path, &text)?;
+    Ok((loaded, text))
+}
+
+/// The text of a problem file: a regular file of at most [`MAX_PROBLEM_FILE_BYTES`] bytes of
+/// UTF-8 (a leading byte order mark is kept here; the parsers skip it).
+fn read_problem_text(path: &Path) -> Result<String, ConfigError> {
     let file_error = |problem| ConfigError::File {
         path: path.to_path_buf(),
         problem,
@@ -840,18 +848,24 @@ pub fn load_with_text(path: &Path) -> Result<(LoadedProblem, String), ConfigErro
         },
         ReadFailure::File(problem) => file_error(problem),
     })?;
-    let text = decode(bytes, true).map_err(file_error)?;
-    let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-    let default_name = match stem {
-        Some(stem) => DefaultName::FileStem(stem),
+    decode(bytes, true).map_err(file_error)
+}
+
+/// The case name's default for the file at `path`: its stem.
+fn default_name_of(path: &Path) -> DefaultName {
+    match path.file_stem() {
+        Some(stem) => DefaultName::FileStem(stem.to_string_lossy().into_owned()),
         None => DefaultName::Fixed("problem".into()),
-    };
+    }
+}
+
+/// Check the text of the so(3) problem file at `path` (errors carry the file name).
+fn parse_so3(path: &Path, text: &str) -> Result<LoadedProblem, ConfigError> {
     let base = path.parent().unwrap_or(Path::new(""));
-    let loaded = parse(&text, &default_name, base).map_err(|e| ConfigError::InFile {
+    parse(text, &default_name_of(path), base).map_err(|e| ConfigError::InFile {
         path: path.to_path_buf(),
         source: Box::new(e),
-    })?;
-    Ok((loaded, text))
+    })
 }
 
 /// Check a problem given as TOML text (case name default `"problem"`; a samples file is
@@ -900,65 +914,40 @@ impl ModelFile {
 /// Read a problem file of any model ([`load_with_text`] for so(3) files; other models are
 /// parsed here and checked by [`ModelFile::build`]), and the file's text.
 pub fn load_any(path: &Path) -> Result<(Loaded, String), ConfigError> {
-    let bytes = read_bounded(path, MAX_PROBLEM_FILE_BYTES).map_err(|e| match e {
-        ReadFailure::Io(source) => ConfigError::Read {
+    let text = read_problem_text(path)?;
+    match other_model(&text) {
+        Ok(None) => Ok((Loaded::So3(parse_so3(path, &text)?), text)),
+        Ok(Some((model, table))) => Ok((
+            Loaded::Other(ModelFile {
+                model,
+                table,
+                default_name: default_name_of(path),
+                base_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
+                path: Some(path.to_path_buf()),
+            }),
+            text,
+        )),
+        Err(e) => Err(ConfigError::InFile {
             path: path.to_path_buf(),
-            source,
-        },
-        ReadFailure::File(problem) => ConfigError::File {
-            path: path.to_path_buf(),
-            problem,
-        },
-    })?;
-    let text = decode(bytes, true).map_err(|problem| ConfigError::File {
-        path: path.to_path_buf(),
-        problem,
-    })?;
-    let in_file = |e: ConfigError| ConfigError::InFile {
-        path: path.to_path_buf(),
-        source: Box::new(e),
-    };
-    let model = model_key(&text).map_err(in_file)?;
-    match model {
-        None => load_with_text(path).map(|(l, t)| (Loaded::So3(l), t)),
-        Some(model) => {
-            let table: toml::Table = toml::from_str(text.strip_prefix(BOM).unwrap_or(&text))
-                .map_err(|e| {
-                    in_file(ConfigError::Toml {
-                        field: None,
-                        message: clip_toml_message(e.to_string().trim_end()),
-                    })
-                })?;
-            let stem = path.file_stem().map(|s| s.to_string_lossy().into_owned());
-            Ok((
-                Loaded::Other(ModelFile {
-                    model,
-                    table,
-                    default_name: match stem {
-                        Some(stem) => DefaultName::FileStem(stem),
-                        None => DefaultName::Fixed("problem".into()),
-                    },
-                    base_dir: path.parent().unwrap_or(Path::new("")).to_path_buf(),
-                    path: Some(path.to_path_buf()),
-                }),
-                text,
-            ))
-        }
+            source: Box::new(e),
+        }),
     }
 }
 
-/// The file's `model` key: `None` for so(3) (absent or `"so3"`), the name of another
-/// generated model, or an error naming the models there are.
-fn model_key(text: &str) -> Result<Option<String>, ConfigError> {
+/// The file's `model` key and its parsed table when it names another generated model than
+/// so(3); `None` for so(3) (no key, or `"so3"`) and for text that is no TOML table (the so(3)
+/// parser reports its errors with their field); an error naming the models there are.
+fn other_model(text: &str) -> Result<Option<(String, toml::Table)>, ConfigError> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
     let Ok(table) = toml::from_str::<toml::Table>(text) else {
-        return Ok(None); // the so(3) parser reports TOML errors with their field
+        return Ok(None);
     };
     match table.get("model") {
         None => Ok(None),
         Some(toml::Value::String(m)) if m == "so3" => Ok(None),
         Some(toml::Value::String(m)) if crate::model::MODEL_NAMES.contains(&m.as_str()) => {
-            Ok(Some(m.clone()))
+            let model = m.clone();
+            Ok(Some((model, table)))
         }
         Some(other) => Err(ConfigError::Invalid {
             field: "model".into(),

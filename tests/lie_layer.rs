@@ -69,7 +69,8 @@ fn the_generic_layer_reproduces_the_papers_b_and_cost_on_so3() {
     let problem = paper_generic(1.0);
     assert!(matches!(problem.terminal, TerminalTime::Free { .. }));
     let sol = lie::solve(&problem, &SolveOptions::default(), &mut |_| {}).expect("solves");
-    let (d, v) = lie::verify_solution(&sol);
+    let verified = lie::verify_solution(&sol);
+    let (d, v) = (verified.diagnostics, verified.verification);
     assert!(v.passed(), "{:?}", v.verdict());
     let b = sol.terminal_time();
     assert!(
@@ -440,7 +441,8 @@ fn so3_full_with_principal_axes_is_the_papers_problem_and_its_example_solves() {
     )
     .unwrap();
     let sol = lie::solve(&problem, &SolveOptions::default(), &mut |_| {}).unwrap();
-    let (d, v) = lie::verify_solution(&sol);
+    let verified = lie::verify_solution(&sol);
+    let (d, v) = (verified.diagnostics, verified.verification);
     assert!(v.passed(), "{:?}", v.verdict());
     let (b_ref, j_ref) = (11.359616203476826, 15.394760771339984);
     assert!((sol.terminal_time() - b_ref).abs() <= 1e-9 * b_ref);

@@ -36,9 +36,7 @@ impl Rng {
 fn sample_param(m: &ParamMeta, rng: &mut Rng) -> f64 {
     let v = match m.lower {
         Some(lo) => lo + rng.uniform(0.5, 2.5),
-        // Unbounded parameters are offsets and products of inertia: with the diagonal
-        // entries >= 0.5 these keep every shipped inertia positive definite (Gershgorin).
-        None => rng.uniform(-0.2, 0.2),
+        None => rng.uniform(-0.5, 0.5),
     };
     assert!(m.admits(v), "{}: {v}", m.name);
     v
@@ -93,18 +91,25 @@ macro_rules! model_checks {
             const RTOL: f64 = 1e-6;
 
             fn params(rng: &mut Rng) -> [f64; N_PARAM] {
-                let mut p = [0.0; N_PARAM];
-                for m in INERTIA_PARAMS
-                    .iter()
-                    .chain(WEIGHTS.iter())
-                    .chain(CONSTRAINT_PARAMS.iter())
-                {
-                    p[m.index] = sample_param(m, rng);
+                // Admissible bounds do not make every full inertia positive definite (e.g.
+                // products of inertia): resample until it is (at most 100 draws).
+                let (mut p, mut mat) = ([0.0; N_PARAM], DMatrix::zeros(DIM, DIM));
+                for draw in 0.. {
+                    assert!(draw < 100, "no positive definite inertia in 100 draws");
+                    for m in INERTIA_PARAMS
+                        .iter()
+                        .chain(WEIGHTS.iter())
+                        .chain(CONSTRAINT_PARAMS.iter())
+                    {
+                        p[m.index] = sample_param(m, rng);
+                    }
+                    let mut i = [[0.0; DIM]; DIM];
+                    inertia_matrix(&p, &mut i);
+                    mat = DMatrix::from_fn(DIM, DIM, |r, c| i[r][c]);
+                    if mat.clone().cholesky().is_some() {
+                        break;
+                    }
                 }
-                let mut i = [[0.0; DIM]; DIM];
-                inertia_matrix(&p, &mut i);
-                let mat = DMatrix::from_fn(DIM, DIM, |r, c| i[r][c]);
-                assert!(mat.clone().cholesky().is_some(), "inertia not SPD: {mat}");
                 let inv = mat.try_inverse().expect("invertible inertia");
                 for (slot, r, c) in INERTIA_INVERSE_SLOTS {
                     p[slot] = inv[(r, c)];
@@ -445,10 +450,16 @@ fn first_order_ranks<M: Model>(points: usize, seed: u64) -> Vec<usize> {
     let mut ranks = Vec::new();
     for _ in 0..points {
         let mut p = vec![0.0; M::N_PARAM];
-        for m in M::INERTIA_PARAMS.iter().chain(M::WEIGHTS.iter()) {
-            p[m.index] = sample_param(m, &mut rng);
+        // Resampled until the inertia is positive definite (at most 100 draws).
+        for draw in 0.. {
+            assert!(draw < 100, "no positive definite inertia in 100 draws");
+            for m in M::INERTIA_PARAMS.iter().chain(M::WEIGHTS.iter()) {
+                p[m.index] = sample_param(m, &mut rng);
+            }
+            if fill_derived::<M>(&mut p).is_ok() {
+                break;
+            }
         }
-        fill_derived::<M>(&mut p).expect("admissible parameters");
         let mut x: Vec<f64> = (0..nx).map(|_| rng.uniform(-1.5, 1.5)).collect();
         // on M: remove Omega's component along xi
         let c = (0..n).map(|k| x[k] * x[n + k]).sum::<f64>()

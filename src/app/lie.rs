@@ -173,7 +173,11 @@ fn motion<M: Model>(sol: &LieSolution<M>, points: usize) -> Result<Option<Motion
 }
 
 fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) {
-    let (d, verification) = lie::verify_solution(sol);
+    let lie::verify::Verified {
+        diagnostics: d,
+        reintegration,
+        verification,
+    } = lie::verify_solution(sol);
     let verified = verification.passed();
     let status = match verification.verdict() {
         Verdict::Verified => CaseStatus::Converged,
@@ -200,9 +204,7 @@ fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) 
         status: status.to_string(),
         verification: Some((&verification).into()),
         stages: stage_summaries_of(&sol.stages),
-        reintegration_max_diff: verification
-            .check("reintegration")
-            .map(|c| c.value * d.omega_norm_max),
+        reintegration_max_diff: reintegration.as_ref().ok().map(|r| r.max_abs_diff),
         ..Default::default()
     };
     c.extra.insert("model".into(), serde_json::json!(M::NAME));
@@ -397,7 +399,7 @@ pub fn run_model_certify<M: Model>(
     let mut report = match solved {
         Err(e) => CertificateReport::error(&name, format!("the solve failed: {e}")),
         Ok(sol) => {
-            let (_, verification) = lie::verify_solution(&sol);
+            let verification = lie::verify_solution(&sol).verification;
             let clock = Instant::now();
             let cert = lie::certify::certify(
                 &sol,
@@ -446,7 +448,7 @@ pub fn run_model_rank_along<M: Model>(
         }
     };
     let mut text = String::new();
-    let (_, verification) = lie::verify_solution(&sol);
+    let verification = lie::verify_solution(&sol).verification;
     let mut all_accessible = true;
     if let Verdict::Unverified { reason } = verification.verdict() {
         all_accessible = false;

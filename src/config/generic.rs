@@ -109,12 +109,7 @@ fn number(field: &str, v: &toml::Value) -> Result<f64, ConfigError> {
     Ok(x)
 }
 
-fn vector(
-    field: &str,
-    v: &toml::Value,
-    n: usize,
-    meaning: &'static str,
-) -> Result<Vec<f64>, ConfigError> {
+fn vector(field: &str, v: &toml::Value, n: usize, meaning: &str) -> Result<Vec<f64>, ConfigError> {
     let toml::Value::Array(items) = v else {
         return Err(invalid(
             field,
@@ -129,7 +124,7 @@ fn vector(
             field: field.into(),
             found: items.len(),
             expected: n,
-            meaning,
+            meaning: meaning.to_string(),
         });
     }
     items
@@ -153,19 +148,9 @@ fn table<'a>(root: &'a Table, key: &str, fix: &str) -> Result<&'a Table, ConfigE
     }
 }
 
-/// A model's basis names joined, leaked once per model for the `'static` error text.
-fn basis_meaning<M: Model>() -> &'static str {
-    static CACHE: std::sync::OnceLock<std::sync::Mutex<Vec<(&'static str, &'static str)>>> =
-        std::sync::OnceLock::new();
-    let cache = CACHE.get_or_init(Default::default);
-    let mut c = cache.lock().unwrap_or_else(|e| e.into_inner());
-    if let Some((_, m)) = c.iter().find(|(n, _)| *n == M::NAME) {
-        return m;
-    }
-    let m: &'static str =
-        Box::leak(format!("components along {}", M::BASIS_NAMES.join(", ")).into_boxed_str());
-    c.push((M::NAME, m));
-    m
+/// What a vector of the model's dimension holds (for messages).
+fn basis_meaning<M: Model>() -> String {
+    format!("components along {}", M::BASIS_NAMES.join(", "))
 }
 
 /// Read the samples CSV `t, Ω_1, …, Ω_n` (header optional, `#` comments).
@@ -249,7 +234,7 @@ pub(crate) fn build<M: Model>(
     };
     let name = name_file.case_name(default_name)?;
     let n = M::DIM;
-    let meaning = basis_meaning::<M>();
+    let meaning = &basis_meaning::<M>();
 
     // [body]: the inertia parameters.
     let inertia_names: Vec<&str> = M::INERTIA_PARAMS.iter().map(|m| m.name).collect();

@@ -265,14 +265,14 @@ impl<M: Model> Problem<M> {
         if problem.omega_a.iter().all(|x| *x == 0.0) {
             return Err(ProblemError::ZeroOmegaA);
         }
-        let inertia = problem.inertia_matrix();
-        let set = match LevelSet::through(&inertia, M::DIM, &problem.omega_a) {
-            Ok(set) => set,
-            Err(_) => {
-                let level = quadratic(&inertia, &problem.omega_a);
-                return Err(ProblemError::EnergyOutOfRange { level });
-            }
-        };
+        let set = LevelSet::through(&problem.inertia_matrix(), M::DIM, &problem.omega_a).map_err(
+            |e| match e {
+                PathError::LevelOutOfRange { level, .. } => {
+                    ProblemError::EnergyOutOfRange { level }
+                }
+                other => ProblemError::Path(other),
+            },
+        )?;
         let mismatch = set.relative_mismatch(&problem.omega_b);
         let on_level_set = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN
         if !on_level_set {
@@ -313,12 +313,11 @@ impl<M: Model> Problem<M> {
             .map(|m| self.params[m.index])
     }
 
-    /// The same problem with the weight at `index` (an index into `p`) set to `value`
-    /// (homotopy snapshots; the derived constants depend on the inertia only).
-    pub(crate) fn with_param(&self, index: usize, value: f64) -> Self {
-        let mut p = self.clone();
-        p.params[index] = value;
-        p
+    /// Set the weight at `index` (an index into `p`) to `value` (homotopy snapshots; the
+    /// derived constants depend on the inertia only).
+    pub(crate) fn set_weight(&mut self, index: usize, value: f64) {
+        debug_assert!(M::WEIGHTS.iter().any(|w| w.index == index));
+        self.params[index] = value;
     }
 
     /// The inertia operator `𝕀` (row-major `n × n`).
@@ -333,14 +332,6 @@ impl<M: Model> Problem<M> {
         LevelSet::through(&self.inertia_matrix(), M::DIM, &self.omega_a)
             .expect("validated by Problem::new: finite, nonzero, representable level")
     }
-}
-
-/// `⟨v, 𝕀v⟩` for a row-major `𝕀`.
-pub(crate) fn quadratic(inertia: &[f64], v: &[f64]) -> f64 {
-    let n = v.len();
-    (0..n)
-        .map(|i| v[i] * (0..n).map(|j| inertia[i * n + j] * v[j]).sum::<f64>())
-        .sum()
 }
 
 /// Index of `T = b − a` among the BVP's unknown parameters (free terminal time only).

@@ -345,7 +345,7 @@ impl<M: Model> Homotopy<'_, M> {
     fn snapshot(&self) -> LieSolution<M> {
         let mut problem = self.problem.clone();
         for w in M::WEIGHTS {
-            problem = problem.with_param(w.index, self.params[w.index]);
+            problem.set_weight(w.index, self.params[w.index]);
         }
         if self.fixed_span.is_none() {
             problem.terminal = TerminalTime::Free {

@@ -15,20 +15,11 @@ use std::cell::RefCell;
 use crate::bvp::BvpProblem;
 use crate::ivp::{integrate, IvpOptions};
 use crate::model::Model;
-use crate::suslov::diagnostics::{fine_grid, Diagnostics, FINE_PER_INTERVAL};
+use crate::suslov::diagnostics::{fine_grid, Diagnostics, FINE_PER_INTERVAL, GAUSS5};
 use crate::suslov::verify::Verification;
 
-use super::problem::{quadratic, LieBvp};
+use super::problem::LieBvp;
 use super::solve::LieSolution;
-
-/// Gauss–Legendre nodes and weights on [0, 1], 5 points.
-const GAUSS5: [(f64, f64); 5] = [
-    (0.046_910_077_030_668, 0.118_463_442_528_094_5),
-    (0.230_765_344_947_158_5, 0.239_314_335_249_683_2),
-    (0.5, 0.284_444_444_444_444_4),
-    (0.769_234_655_052_841_5, 0.239_314_335_249_683_2),
-    (0.953_089_922_969_332, 0.118_463_442_528_094_5),
-];
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
@@ -48,8 +39,8 @@ pub fn diagnose<M: Model>(sol: &LieSolution<M>) -> Diagnostics {
         fixed_span: Some(t_span),
         ..LieBvp::new(problem)
     };
-    let inertia = problem.inertia_matrix();
-    let kinetic = |om: &[f64]| 0.5 * quadratic(&inertia, om);
+    let set = problem.level_set();
+    let kinetic = |om: &[f64]| 0.5 * set.quadratic(om);
     let t_a = kinetic(&problem.omega_a);
     let x = &sol.bvp.x;
     let n_state = M::N_STATE;
@@ -166,8 +157,7 @@ pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegr
         &IvpOptions::default(),
     )
     .map_err(|e| e.to_string())?;
-    let inertia = problem.inertia_matrix();
-    let level = quadratic(&inertia, &problem.omega_a);
+    let set = problem.level_set();
     let mut out = Reintegration {
         max_abs_diff: 0.0,
         t_max_abs_diff: a,
@@ -182,7 +172,7 @@ pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegr
             out.max_abs_diff = dn;
             out.t_max_abs_diff = *t;
         }
-        let drift = (quadratic(&inertia, om) / level - 1.0).abs();
+        let drift = set.relative_mismatch(om).abs();
         out.max_rel_energy_drift = out.max_rel_energy_drift.max(drift);
     }
     Ok(out)
@@ -190,9 +180,32 @@ pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegr
 
 /// Diagnose `sol`, re-integrate its control and check both against its requested tolerance
 /// (the so(3) layer's [`Verification`]).
-pub fn verify_solution<M: Model>(sol: &LieSolution<M>) -> (Diagnostics, Verification) {
-    let d = diagnose(sol);
-    let reintegration = reintegrate_difference(sol).map(|r| r.max_abs_diff);
-    let v = Verification::new(&d, reintegration, norm(&sol.problem.omega_b), sol.tolerance);
-    (d, v)
+pub fn verify_solution<M: Model>(sol: &LieSolution<M>) -> Verified {
+    let diagnostics = diagnose(sol);
+    let reintegration = reintegrate_difference(sol);
+    let verification = Verification::new(
+        &diagnostics,
+        reintegration
+            .as_ref()
+            .map(|r| r.max_abs_diff)
+            .map_err(Clone::clone),
+        norm(&sol.problem.omega_b),
+        sol.tolerance,
+    );
+    Verified {
+        diagnostics,
+        reintegration,
+        verification,
+    }
+}
+
+/// Everything [`verify_solution`] measured, and its verdict.
+#[derive(Debug, Clone)]
+pub struct Verified {
+    /// The diagnostics.
+    pub diagnostics: Diagnostics,
+    /// The re-integration, or why it failed.
+    pub reintegration: Result<Reintegration, String>,
+    /// The checks against the requested tolerance.
+    pub verification: Verification,
 }

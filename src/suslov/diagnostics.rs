@@ -29,7 +29,7 @@ use super::SuslovError;
 pub const FINE_PER_INTERVAL: usize = 10;
 
 /// Gauss–Legendre nodes and weights on [0, 1], 5 points.
-const GAUSS5: [(f64, f64); 5] = [
+pub(crate) const GAUSS5: [(f64, f64); 5] = [
     (0.046_910_077_030_668, 0.118_463_442_528_094_5),
     (0.230_765_344_947_158_5, 0.239_314_335_249_683_2),
     (0.5, 0.284_444_444_444_444_4),
