@@ -450,6 +450,11 @@ def trait_text(sigs):
         "    /// matrices `k x k` one after the other, row-major (`None` when the model declares",
         "    /// its algebra by structure constants only).",
         "    const REPRESENTATION: Option<(usize, &'static [f64])>;",
+        "    /// Whether the constraint value gamma(xi) in <Omega, xi> = gamma(xi) is not",
+        "    /// identically 0 (then the start imposes it: `bc_start_constrained`).",
+        "    const HAS_CONSTRAINT_VALUE: bool;",
+        "    /// Whether gamma depends on xi (else the constraint at a fixed Omega is linear in xi).",
+        "    const CONSTRAINT_VALUE_DEPENDS_ON_XI: bool;",
     ]
     for sig in sigs:
         first = sig["doc"].strip().splitlines()[0]
@@ -488,6 +493,8 @@ def impl_text(type_name, fns, representation):
         "    const N_BC_ENDPOINT: usize = N_BC_ENDPOINT;",
         "    const N_BRACKETS: usize = N_BRACKETS;",
         f"    const REPRESENTATION: Option<(usize, &'static [f64])> = {representation};",
+        "    const HAS_CONSTRAINT_VALUE: bool = HAS_CONSTRAINT_VALUE;",
+        "    const CONSTRAINT_VALUE_DEPENDS_ON_XI: bool = CONSTRAINT_VALUE_DEPENDS_ON_XI;",
     ]
     for fn in fns:
         call = []

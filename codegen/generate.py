@@ -168,6 +168,46 @@ def build_functions(opt):
         prog, [y_arg, p_arg, end_arg],
         [Out("d_y", Jbc, "matrix", "d residual_i / d y_j")]))
 
+    # ---- the constraint, and the start conditions that impose it ---------------------------
+    # phi = <Omega, xi> - gamma(xi) is conserved by Suslov's equations (lambda is chosen so),
+    # but its value is set by the initial data. With gamma = 0 the paper's conditions above
+    # select phi = 0 (the energy at b then matches; src/lie/problem.rs); with a constraint
+    # value they do not, and the start imposes phi(a) = 0 with a multiplier mu: xi(a) is free
+    # on {phi = 0}, so the natural condition becomes p_xi(a) = mu dphi/dxi.
+    cx_syms = list(M.Om) + list(M.xi)
+    phi = M.constraint(M.Om, M.xi)
+    prog = Program(cx_syms, M.PARAMS)
+    gphi = prog.jacobian([phi], cx_syms)
+    fns.append(Function(
+        "constraint_residual",
+        "The constraint phi(Omega, xi) = <Omega, xi> - gamma(xi) (zero on the constraint\n"
+        "manifold) and its gradient with respect to [Omega, xi].",
+        prog, [Arg("x", cx_syms, "[Omega, xi]", state_sample), p_arg],
+        [Out("d_x", gphi.T, "array", f"dphi/d[Omega, xi], {2 * n} entries"),
+         Out("value", phi, "return", "phi")]))
+    mu = sp.Symbol("mu", real=True)
+    mu_arg = Scalar(mu, "the multiplier of the start constraint phi(a) = 0", u(-2.0, 2.0))
+    gphi_xi = sp.Matrix([sp.diff(phi, s) for s in M.xi])
+    bcs = list(M.Om - OMA) + list(D.natural_bc(opt) - mu * gphi_xi) + [phi]
+    prog = Program(ep_inputs, M.PARAMS + [mu])
+    opt.suslov.let_omega_dot(prog)
+    fns.append(Function(
+        "bc_start_constrained",
+        "Start conditions of a model with a constraint value: Omega = Omega_end, the natural\n"
+        "condition on {phi = 0}, p_xi - mu dphi/dxi = 0, and phi = 0 itself (2n + 1 rows).",
+        prog, [y_arg, p_arg, end_arg, mu_arg],
+        [Out("out", sp.Matrix(bcs), "array", f"the {len(bcs)} residuals")]))
+    prog = Program(ep_inputs, M.PARAMS + [mu])
+    opt.suslov.let_omega_dot(prog)
+    Jbs = prog.jacobian(bcs, M.STATE)
+    d_mu = sp.Matrix([0] * n + list(-gphi_xi) + [0])
+    fns.append(Function(
+        "bc_start_constrained_jac",
+        "Jacobians of `bc_start_constrained` with respect to the state y and to mu.",
+        prog, [y_arg, p_arg, end_arg, mu_arg],
+        [Out("d_y", Jbs, "matrix", "d residual_i / d y_j"),
+         Out("d_mu", d_mu, "array", "d residual_i / d mu")]))
+
     wb_arg = Arg("wb", list(M.Om_d) + list(M.Om_dDot),
                  "the desired path at the terminal time [Omega_d(b), Omega_d'(b)]", u(-2.0, 2.0))
     ftc = D.free_time_condition(opt)
@@ -441,6 +481,7 @@ def param_meta(M, p):
 def metadata(M):
     """Rust constants describing the model: sizes, layouts, names, parameter metadata."""
     n, ny = M.n, len(M.STATE)
+    gamma = M.constraint_value(M.xi)
     strs = lambda xs: ", ".join(rust_str(str(x)) for x in xs)  # noqa: E731
     parts = [
         f"/// The model's name (`codegen/models/{M.NAME}.py`).\n"
@@ -501,6 +542,12 @@ def metadata(M):
         f"pub const N_BC_ENDPOINT: usize = {2 * n};",
         f"/// Number of Lie brackets [g_i, g_j], i < j, of the control fields.\n"
         f"pub const N_BRACKETS: usize = {n * (n - 1) // 2};",
+        f"/// Whether the constraint value gamma(xi) in <Omega, xi> = gamma(xi) is not identically\n"
+        f"/// 0: the kinetic energy is then balanced (dT/dt = lambda gamma), not conserved.\n"
+        f"pub const HAS_CONSTRAINT_VALUE: bool = {str(gamma != 0).lower()};",
+        f"/// Whether gamma depends on xi.\n"
+        f"pub const CONSTRAINT_VALUE_DEPENDS_ON_XI: bool = "
+        f"{str(bool(gamma.free_symbols & set(M.xi))).lower()};",
     ]
     return parts
 

@@ -76,7 +76,7 @@ RESERVED_STEMS = ["Om", "OmDot", "OmDDot", "OmDDDot", "xi", "xiDot", "xiDDot", "
                   "kappaDot", "Omd", "OmdDot", "OmdDDot", "OmEnd", "Iinv", "lam", "lambda",
                   "lamDot", "lamDDot", "dlam", "fom", "oa", "ob", "ka", "kb", "sh", "sw", "sm",
                   "xt", "xtn", "xip", "xipDot", "dxt", "ddxt", "x", "w", "s", "t", "z", "y", "p",
-                  "od", "wb", "out"]
+                  "od", "wb", "out", "mu"]
 RESERVED = re.compile(r"^(" + "|".join(RESERVED_STEMS) + r")\d*$")
 IDENT = re.compile(r"^[A-Za-z][A-Za-z0-9]*$")
 

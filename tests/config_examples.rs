@@ -52,6 +52,9 @@ fn every_example_loads_and_validates() {
                 "so3_full" => file
                     .build::<suslov::model::so3_full::So3Full>()
                     .map(|l| l.name),
+                "so3_inhomogeneous" => file
+                    .build::<suslov::model::so3_inhomogeneous::So3Inhomogeneous>()
+                    .map(|l| l.name),
                 other => panic!("add model {other} to this test"),
             }
             .unwrap_or_else(|e| panic!("{e}")),

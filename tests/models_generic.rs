@@ -1,11 +1,12 @@
 //! Every generated model, checked through its emitted Rust at seeded random points:
 //!
 //! * every Jacobian against central finite differences of the function it differentiates
-//!   (`ode_jac_scaled`, `bc_endpoint_jac`, `free_time_condition_jac`, `direct_dynamics`'s
+//!   (`ode_jac_scaled`, `bc_endpoint_jac`, `bc_start_constrained_jac` (in `y` and `μ`),
+//!   `constraint_residual`'s gradient, `free_time_condition_jac`, `direct_dynamics`'s
 //!   `f_z`, `direct_cost`'s gradients, `direct_hessian`, and the Lie brackets of
 //!   `lie_brackets` against finite differences of `control_fields`);
-//! * Suslov's equations keep the constraint and the energy: on `⟨Ω, ξ⟩ = 0`,
-//!   `d/dt ⟨Ω, ξ⟩ = 0` and `d/dt ½⟨IΩ, Ω⟩ = 0`;
+//! * Suslov's equations keep the constraint and balance the energy: on `φ = ⟨Ω, ξ⟩ − γ(ξ) = 0`,
+//!   `dφ/dt = 0` and `d/dt ½⟨IΩ, Ω⟩ = λ⟨Ω, ξ⟩` (`= 0` for a model without a constraint value);
 //! * the singular control reproduces a given path: for a jet of `Ω_p` on an energy level set
 //!   (`⟨IΩ_p, Ω̇_p⟩ = 0` and its derivative), Suslov's equations driven by `ξ_p`, `ξ̇_p` give
 //!   back `Ω̇_p`.
@@ -253,6 +254,47 @@ macro_rules! model_checks {
                         assert!(close(d_y[i][j], col[i], RTOL), "bc{i}/y{j}");
                     }
                 }
+                // The start conditions with the multiplier mu, in y and in mu.
+                const NS: usize = N_BC_ENDPOINT + 1;
+                let mu = rng.uniform(-1.5, 1.5);
+                let (mut d_y, mut d_mu) = ([[0.0; N_STATE]; NS], [0.0; NS]);
+                bc_start_constrained_jac(&y, &p, &end, mu, &mut d_y, &mut d_mu);
+                let cols = fd(&y, |y| {
+                    let mut o = [0.0; NS];
+                    bc_start_constrained(y, &p, &end, mu, &mut o);
+                    o
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    for i in 0..NS {
+                        assert!(close(d_y[i][j], col[i], RTOL), "bcs{i}/y{j}");
+                    }
+                }
+                let col = &fd(&[mu], |m| {
+                    let mut o = [0.0; NS];
+                    bc_start_constrained(&y, &p, &end, m[0], &mut o);
+                    o
+                })[0];
+                for i in 0..NS {
+                    assert!(close(d_mu[i], col[i], RTOL), "bcs{i}/mu");
+                }
+                // Without mu, the first 2n rows are bc_endpoint's and the last is phi.
+                let (mut plain, mut with0) = ([0.0; N_BC_ENDPOINT], [0.0; NS]);
+                bc_endpoint(&y, &p, &end, &mut plain);
+                bc_start_constrained(&y, &p, &end, 0.0, &mut with0);
+                let mut grad_phi = [0.0; 2 * DIM];
+                let x: [f64; 2 * DIM] = y[..2 * DIM].try_into().unwrap();
+                let phi = constraint_residual(&x, &p, &mut grad_phi);
+                for i in 0..N_BC_ENDPOINT {
+                    assert!(close(with0[i], plain[i], 1e-14), "bcs{i} at mu = 0");
+                }
+                assert!(close(with0[N_BC_ENDPOINT], phi, 1e-14));
+                let cols = fd(&x, |x| {
+                    let mut g = [0.0; 2 * DIM];
+                    [constraint_residual(x, &p, &mut g)]
+                });
+                for (j, col) in cols.iter().enumerate() {
+                    assert!(close(grad_phi[j], col[0], RTOL), "phi/x{j}");
+                }
                 let wb: [f64; N_DESIRED] = vec_of(&mut rng);
                 let mut grad = [0.0; N_STATE];
                 free_time_condition_jac(&y, &p, &wb, &mut grad);
@@ -323,30 +365,42 @@ macro_rules! model_checks {
             }
 
             #[test]
-            fn suslov_equations_keep_the_constraint_and_the_energy() {
+            fn suslov_equations_keep_the_constraint_and_balance_the_energy() {
                 let mut rng = Rng(4);
                 for _ in 0..5 {
                     let p = params(&mut rng);
                     let mut x: [f64; 3 * DIM] = vec_of(&mut rng);
-                    // Put Omega on <Omega, xi> = 0 (remove its component along xi).
-                    let (om, xi) = (&x[..DIM], &x[DIM..2 * DIM]);
-                    let c = (0..DIM).map(|k| om[k] * xi[k]).sum::<f64>()
-                        / (0..DIM).map(|k| xi[k] * xi[k]).sum::<f64>();
+                    // Put Omega on phi = <Omega, xi> - gamma(xi) = 0: gamma does not depend
+                    // on Omega, so moving Omega along xi by phi / |xi|^2 is exact.
+                    let mut grad = [0.0; 2 * DIM];
+                    let phi0 =
+                        constraint_residual(&x[..2 * DIM].try_into().unwrap(), &p, &mut grad);
+                    let xi2 = (0..DIM).map(|k| x[DIM + k] * x[DIM + k]).sum::<f64>();
                     for k in 0..DIM {
-                        x[k] -= c * x[DIM + k];
+                        x[k] -= phi0 / xi2 * x[DIM + k];
                     }
+                    let phi = constraint_residual(&x[..2 * DIM].try_into().unwrap(), &p, &mut grad);
+                    assert!(phi.abs() < 1e-12, "phi = {phi}");
                     let mut om_dot = [0.0; DIM];
-                    suslov_omega_dot(&x, &p, &mut om_dot);
+                    let lambda = suslov_omega_dot(&x, &p, &mut om_dot);
+                    // dphi/dt = dphi/dOmega . Omega' + dphi/dxi . xi'
                     let dphi: f64 = (0..DIM)
-                        .map(|k| x[DIM + k] * om_dot[k] + x[k] * x[2 * DIM + k])
+                        .map(|k| grad[k] * om_dot[k] + grad[DIM + k] * x[2 * DIM + k])
                         .sum();
                     let mut i = [[0.0; DIM]; DIM];
                     inertia_matrix(&p, &mut i);
                     let de: f64 = (0..DIM)
                         .map(|r| (0..DIM).map(|c| x[r] * i[r][c] * om_dot[c]).sum::<f64>())
                         .sum();
-                    assert!(dphi.abs() < 1e-12, "d<Om,xi>/dt = {dphi}");
-                    assert!(de.abs() < 1e-12, "dT/dt = {de}");
+                    let power = lambda * (0..DIM).map(|k| x[k] * x[DIM + k]).sum::<f64>();
+                    assert!(dphi.abs() < 1e-12, "dphi/dt = {dphi}");
+                    assert!(
+                        (de - power).abs() < 1e-12 * (1.0 + power.abs()),
+                        "dT/dt = {de}, lambda <Om, xi> = {power}"
+                    );
+                    if !HAS_CONSTRAINT_VALUE {
+                        assert!(de.abs() < 1e-12, "dT/dt = {de}");
+                    }
                 }
             }
 
@@ -439,6 +493,7 @@ model_checks!(so3, So3);
 model_checks!(se2, Se2);
 model_checks!(so4, So4);
 model_checks!(so3_full, So3Full);
+model_checks!(so3_inhomogeneous, So3Inhomogeneous);
 
 /// The accessibility matrix of the first-order brackets, V = [g_1 .. g_n, [g_i, g_j] (i < j)],
 /// at `points` seeded states on M = {<Omega, xi> = 0}, for any model: returns the numerical
@@ -453,7 +508,11 @@ fn first_order_ranks<M: Model>(points: usize, seed: u64) -> Vec<usize> {
         // Resampled until the inertia is positive definite (at most 100 draws).
         for draw in 0.. {
             assert!(draw < 100, "no positive definite inertia in 100 draws");
-            for m in M::INERTIA_PARAMS.iter().chain(M::WEIGHTS.iter()) {
+            for m in M::INERTIA_PARAMS
+                .iter()
+                .chain(M::WEIGHTS.iter())
+                .chain(M::CONSTRAINT_PARAMS.iter())
+            {
                 p[m.index] = sample_param(m, &mut rng);
             }
             if fill_derived::<M>(&mut p).is_ok() {
@@ -461,8 +520,9 @@ fn first_order_ranks<M: Model>(points: usize, seed: u64) -> Vec<usize> {
             }
         }
         let mut x: Vec<f64> = (0..nx).map(|_| rng.uniform(-1.5, 1.5)).collect();
-        // on M: remove Omega's component along xi
-        let c = (0..n).map(|k| x[k] * x[n + k]).sum::<f64>()
+        // on the constraint level phi = <Omega, xi> - gamma(xi) = 0: move Omega along xi
+        let mut grad = vec![0.0; nx];
+        let c = M::constraint_residual(&x, &p, &mut grad)
             / (0..n).map(|k| x[n + k] * x[n + k]).sum::<f64>();
         for k in 0..n {
             x[k] -= c * x[n + k];
@@ -484,6 +544,22 @@ fn first_order_ranks<M: Model>(points: usize, seed: u64) -> Vec<usize> {
         ranks.push(s.iter().filter(|&&x| x > 1e-9 * smax).count());
     }
     ranks
+}
+
+/// With a nonzero constraint value (the inhomogeneous Suslov problem, `⟨Ω, ξ⟩ = c`, `c` drawn
+/// in ±0.5 and never 0 here) the energy is no longer an invariant (`Ṫ = λc`), the fields are
+/// tangent to the constraint level only, `dim M = 2n − 1 = 5`, and the first-order brackets
+/// already give rank 5 at each of 50 seeded states: the accessibility rank condition holds on
+/// the 5-dimensional constraint level, so the reachable set is open in it (not confined to an
+/// energy ellipsoid).
+#[test]
+fn first_order_accessibility_rank_with_a_constraint_value_is_2n_minus_1() {
+    let ranks = first_order_ranks::<suslov::model::so3_inhomogeneous::So3Inhomogeneous>(50, 25);
+    eprintln!("so3_inhomogeneous {ranks:?}");
+    assert!(
+        ranks.iter().all(|&r| r == 5),
+        "so3_inhomogeneous: {ranks:?}"
+    );
 }
 
 /// A finding beyond the paper (which proves rank V = 4 = dim M for so3): with the first-order

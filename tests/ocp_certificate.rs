@@ -153,6 +153,7 @@ fn pendulum_transcription(p: &Pendulum, free: bool) -> Transcription<'_, Pendulu
     let boundary = Boundary {
         start: vec![(0, 0.5), (1, 0.0)],
         end: vec![(0, 0.0)],
+        start_linear: vec![],
     };
     Transcription::new(p, boundary, horizon, graded_mesh(4)).expect("valid transcription")
 }
@@ -258,6 +259,7 @@ fn oscillator_transcription(
     let boundary = Boundary {
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
+        start_linear: vec![],
     };
     let horizon = Horizon::Fixed {
         t0: 0.0,
@@ -385,6 +387,7 @@ fn free_time_optimum_is_found_and_certified() {
     let boundary = Boundary {
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
+        start_linear: vec![],
     };
     let tr = Transcription::new(&prob, boundary, Horizon::Free { t0: 1.0 }, uniform_mesh(5))
         .expect("valid");

@@ -224,6 +224,20 @@ fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) 
         .insert("omega_b".into(), serde_json::json!(sol.problem.omega_b));
     c.extra
         .insert("bc_residual".into(), serde_json::json!(d.bc_residual));
+    c.extra.insert(
+        "energy".into(),
+        serde_json::json!(if sol.problem.conserves_energy() {
+            "conserved: energy_drift is max |T(t) - T(a)|"
+        } else {
+            "balanced (nonzero constraint value): energy_drift is max |T(t) - T(a) - int lambda \
+             <Omega, xi> dt|"
+        }),
+    );
+    if let Some(mu) = sol.start_multiplier() {
+        // The multiplier of the start constraint phi(a) = 0 (src/lie/problem.rs).
+        c.extra
+            .insert("start_multiplier".into(), serde_json::json!(mu));
+    }
     // The accessibility rank test along the solution (paper section 4.3, any model).
     let rank = lie::controllability::rank_along(sol, ACCESSIBILITY_POINTS, RANK_RTOL);
     c.extra.insert(

@@ -22,6 +22,9 @@
 //! beta = 0.1
 //! gamma = 1.0
 //!
+//! [constraint]                       # only models with a constraint value, its parameters:
+//! c = 0.5                            # so3_inhomogeneous: <Omega, xi> = c
+//!
 //! [desired]                          # Ω_d(t): "segment" (default), "constant" or "samples"
 //! kind = "segment"                   # from/to (default omega_a/omega_b), interval
 //!
@@ -29,16 +32,20 @@
 //! ```
 //!
 //! Every path is projected radially onto `Ω_a`'s energy level set `⟨Ω, 𝕀Ω⟩ = ⟨Ω_a, 𝕀Ω_a⟩` (𝕀
-//! the model's inertia, full matrix). `samples` reads a CSV with rows `t, Ω_1, …, Ω_n`.
+//! the model's inertia, full matrix), and `Ω_b` must lie on it, when the constraint value
+//! vanishes (the energy is then conserved). With a nonzero constraint value neither holds: the
+//! energy changes as `Ṫ = λγ`, `Ω_b` may be anywhere (nonzero), a `segment` runs straight from
+//! `from` to `to`, and paths are used as given. `samples` reads a CSV with rows
+//! `t, Ω_1, …, Ω_n`.
 //! Unknown keys are errors that list the keys the model accepts.
 
 use std::path::Path;
 use std::sync::Arc;
 
 use crate::lie::path::{
-    projected_segment, Constant, LevelSet, Path as LiePath, Projected, Sampled,
+    projected_segment, Constant, LevelSet, Path as LiePath, Projected, Sampled, Segment,
 };
-use crate::lie::problem::{Problem, ProblemError};
+use crate::lie::problem::Problem;
 use crate::model::{HomotopyRole, Model};
 use crate::suslov::problem::{TerminalTime, ENERGY_REL_TOL};
 use crate::suslov::solve::SolveOptions;
@@ -214,9 +221,22 @@ pub(crate) fn build<M: Model>(
     only_keys(
         root,
         "",
-        &[
-            "model", "name", "body", "boundary", "cost", "desired", "solver",
-        ],
+        if M::CONSTRAINT_PARAMS.is_empty() {
+            &[
+                "model", "name", "body", "boundary", "cost", "desired", "solver",
+            ]
+        } else {
+            &[
+                "model",
+                "name",
+                "body",
+                "boundary",
+                "cost",
+                "constraint",
+                "desired",
+                "solver",
+            ]
+        },
     )?;
     // The case name: the so(3) file's rules (one printable line, capped).
     let name_file = ProblemFile {
@@ -292,23 +312,45 @@ pub(crate) fn build<M: Model>(
         }
         user[meta.index] = v;
     }
+    // [constraint]: the constraint value's parameters (models that have them).
     if !M::CONSTRAINT_PARAMS.is_empty() {
-        return Err(invalid(
-            "model",
-            ProblemError::ConstraintValue {
-                model: M::NAME,
-                names: M::CONSTRAINT_PARAMS
-                    .iter()
-                    .map(|m| m.name)
-                    .collect::<Vec<_>>()
-                    .join(", "),
+        let names: Vec<&str> = M::CONSTRAINT_PARAMS.iter().map(|m| m.name).collect();
+        let constraint = table(
+            root,
+            "constraint",
+            &format!(
+                "add a [constraint] table with {} (the constraint value of model {}: {})",
+                names.join(", "),
+                M::NAME,
+                M::TITLE
+            ),
+        )?;
+        only_keys(constraint, "constraint", &names)?;
+        for meta in M::CONSTRAINT_PARAMS {
+            let field = format!("constraint.{}", meta.name);
+            let v = constraint
+                .get(meta.name)
+                .ok_or_else(|| ConfigError::Missing {
+                    field: field.clone(),
+                    fix: format!("add {} = ... under [constraint] ({})", meta.name, meta.doc),
+                })?;
+            let v = number(&field, v)?;
+            if !meta.admits(v) {
+                return Err(ConfigError::OutOfRange {
+                    field,
+                    value: v.to_string(),
+                    requirement: meta.doc.to_string(),
+                });
             }
-            .to_string(),
-        ));
+            user[meta.index] = v;
+        }
     }
     let mut p = vec![0.0; M::N_PARAM];
     p[..M::N_USER_PARAM].copy_from_slice(&user);
     crate::model::fill_derived::<M>(&mut p).map_err(|e| invalid("body", e.to_string()))?;
+    // With a nonzero constraint value the energy is not conserved: Ω_b may be off the level set
+    // of Ω_a, and the desired paths are not projected onto it.
+    let conserves_energy = crate::model::constraint_value_vanishes::<M>(&p);
     let mut inertia = vec![0.0; n * n];
     M::inertia_matrix(&p, &mut inertia);
 
@@ -465,9 +507,10 @@ pub(crate) fn build<M: Model>(
                      samples); for a segment give omega_b itself",
                 ))
             }
-            (_, Some((_, v))) => set
+            (_, Some((_, v))) if conserves_energy => set
                 .project(v)
                 .map_err(|e| invalid("boundary.omega_b", e.to_string()))?,
+            (_, Some((_, v))) => v.clone(),
             _ => unreachable!("constant and samples have an end point"),
         }
     } else {
@@ -475,7 +518,7 @@ pub(crate) fn build<M: Model>(
     };
     let mismatch = set.relative_mismatch(&omega_b);
     let on_level_set = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN
-    if !on_level_set {
+    if conserves_energy && !on_level_set {
         let projection = set.project(&omega_b).unwrap_or_default();
         return Err(invalid(
             "boundary.omega_b",
@@ -536,10 +579,14 @@ pub(crate) fn build<M: Model>(
         });
     }
     let desired: Arc<dyn LiePath> = if let Some(inner) = raw {
-        Arc::new(Projected {
-            inner,
-            set: set.clone(),
-        })
+        if conserves_energy {
+            Arc::new(Projected {
+                inner,
+                set: set.clone(),
+            })
+        } else {
+            inner
+        }
     } else {
         only_keys(desired_t, "desired", &["kind", "from", "to", "interval"])?;
         let from = desired_t
@@ -557,16 +604,23 @@ pub(crate) fn build<M: Model>(
             .map(|v| vector("desired.interval", v, 2, "start time, end time"))
             .transpose()?
             .unwrap_or_else(|| vec![t0, b]);
-        let from = set
-            .project(&from)
-            .map_err(|e| invalid("desired.from", e.to_string()))?;
-        let to_p = set
-            .project(&to)
-            .map_err(|e| invalid("desired.to", e.to_string()))?;
-        Arc::new(
-            projected_segment(&set, &from, &to_p, interval[0], interval[1], ENERGY_REL_TOL)
-                .map_err(|e| invalid("desired", e.to_string()))?,
-        )
+        if conserves_energy {
+            let from = set
+                .project(&from)
+                .map_err(|e| invalid("desired.from", e.to_string()))?;
+            let to_p = set
+                .project(&to)
+                .map_err(|e| invalid("desired.to", e.to_string()))?;
+            Arc::new(
+                projected_segment(&set, &from, &to_p, interval[0], interval[1], ENERGY_REL_TOL)
+                    .map_err(|e| invalid("desired", e.to_string()))?,
+            )
+        } else {
+            Arc::new(
+                Segment::new(from, to, interval[0], interval[1])
+                    .map_err(|e| invalid("desired", e.to_string()))?,
+            )
+        }
     };
     // The so(3) file's solver section and its checks.
     let solver: Option<SolverSection> = match root.get("solver") {

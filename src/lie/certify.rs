@@ -12,8 +12,8 @@ use std::marker::PhantomData;
 
 use crate::model::Model;
 use crate::ocp::{
-    self, Boundary, CertifyError, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
-    Transcription,
+    self, Boundary, CertifyError, Horizon, LinearCondition, NewtonOptions, OcpProblem,
+    SecondOrderOptions, Transcription,
 };
 use crate::suslov::certify::SuslovCertificate;
 use crate::suslov::problem::TerminalTime;
@@ -126,9 +126,25 @@ pub fn transcription<'a, M: Model>(
     sol: &LieSolution<M>,
 ) -> Result<Transcription<'a, LieOcp<'a, M>>, ocp::TranscriptionError> {
     let p = &sol.problem;
+    // With a nonzero constraint value the start constraint φ(a) = ⟨Ω_a, ξ(a)⟩ − γ = 0 is
+    // imposed as in the BVP (super::problem; with a vanishing one it is redundant, and its
+    // multiplier not unique); with Ω(a) prescribed it is linear in ξ(a) when γ does not depend
+    // on ξ (`certify` refuses the other case). γ = −φ(0, ξ).
+    let start_linear = if !p.conserves_energy() {
+        let x = vec![0.0; LieOcp::<M>::NX];
+        let mut grad = vec![0.0; LieOcp::<M>::NX];
+        let gamma = -M::constraint_residual(&x, p.params(), &mut grad);
+        vec![LinearCondition {
+            coefficients: M::OMEGA.map(|i| (M::XI.start + i, p.omega_a[i])).collect(),
+            value: gamma,
+        }]
+    } else {
+        vec![]
+    };
     let boundary = Boundary {
         start: M::OMEGA.map(|i| (i, p.omega_a[i])).collect(),
         end: M::OMEGA.map(|i| (i, p.omega_b[i])).collect(),
+        start_linear,
     };
     let horizon = match p.terminal {
         TerminalTime::Fixed(b) => Horizon::Fixed {
@@ -151,6 +167,14 @@ pub fn certify<M: Model>(
     newton: &NewtonOptions,
     opts: &SecondOrderOptions,
 ) -> Result<SuslovCertificate, CertifyError> {
+    if M::CONSTRAINT_VALUE_DEPENDS_ON_XI {
+        return Err(CertifyError::Unsupported(format!(
+            "model {}: the constraint value gamma(xi) depends on xi, so the start constraint \
+             <Omega_a, xi(a)> = gamma(xi(a)) is nonlinear; the certificate handles linear start \
+             conditions only",
+            M::NAME
+        )));
+    }
     let ocp_problem = LieOcp::new(sol);
     let tr = transcription(&ocp_problem, sol)?;
     let values = sol.bvp.collocation_values();

@@ -3,11 +3,17 @@
 //! Suslov's pure equations as a control-affine system `ẋ = f(x) + Σᵢ gᵢ(x) uᵢ`, `x = [Ω, ξ]`
 //! (`2n`), `u = ξ̇`: the fields and the first-order Lie brackets `[gᵢ, gⱼ]` are the model's
 //! generated `control_fields` and `lie_brackets`. The accessibility matrix
-//! `V = [g₁ … gₙ, [gᵢ, gⱼ] (i < j)]` has at most rank `dim M = 2n − 2` on the constraint
-//! manifold `M = {⟨Ω, ξ⟩ = 0, ½⟨Ω, 𝕀Ω⟩ = e}` (every field is tangent to it). The numerical rank
-//! is `#{k : σₖ > rtol · σ₁}` (SVD), as in [`crate::suslov::controllability`]; along a
-//! solution `ξ` is projected onto `Ω^⊥` (the nearest state of `M`) and scaled to unit length
-//! (the rank does not depend on it, the conditioning does).
+//! `V = [g₁ … gₙ, [gᵢ, gⱼ] (i < j)]` has at most rank `dim M` on the manifold `M` every field
+//! is tangent to:
+//! - constraint value 0: `M = {⟨Ω, ξ⟩ = 0, ½⟨Ω, 𝕀Ω⟩ = e}`, `dim M = 2n − 2`;
+//! - a nonzero constraint value `γ`: the energy is not conserved (`Ṫ = λγ`), and
+//!   `M = {⟨Ω, ξ⟩ = γ(ξ)}`, `dim M = 2n − 1`.
+//!
+//! The numerical rank is `#{k : σₖ > rtol · σ₁}` (SVD), as in
+//! [`crate::suslov::controllability`]; along a solution the state tested is the nearest one on
+//! the constraint level `φ = ⟨Ω, ξ⟩ − γ(ξ) = 0` (`ξ` moved along `∂φ/∂ξ` by Newton steps on the
+//! generated `constraint_residual`) and, for `γ = 0`, `ξ` is scaled to unit length (the rank
+//! does not depend on it, the conditioning does).
 
 use nalgebra::DMatrix;
 
@@ -31,7 +37,7 @@ pub struct RankAt {
 /// The rank test along a solution.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
 pub struct RankAlong {
-    /// `dim M = 2n − 2`.
+    /// `dim M`: `2n − 2`, or `2n − 1` with a nonzero constraint value (module docs).
     pub dim_m: usize,
     /// The relative threshold.
     pub rtol: f64,
@@ -43,8 +49,8 @@ pub struct RankAlong {
     pub min_sigma_dim_m: f64,
     /// Largest `σ_{dim M + 1} / σ₁` met (0 up to round-off: the states tested are on `M`).
     pub max_sigma_next: f64,
-    /// The solution's largest `|⟨Ω, ξ⟩| / (|Ω| |ξ|)` at the sampled times (the states
-    /// tested have `ξ` projected onto `Ω^⊥`).
+    /// The solution's largest `|φ| / (|Ω| |ξ|)`, `φ = ⟨Ω, ξ⟩ − γ(ξ)`, at the sampled times
+    /// (the states tested are moved onto `φ = 0`).
     pub max_constraint: f64,
     /// Every sampled state.
     pub samples: Vec<RankAt>,
@@ -69,9 +75,38 @@ pub fn singular_values<M: Model>(x: &[f64], params: &[f64]) -> Vec<f64> {
     sv
 }
 
+/// Move `x = [Ω, ξ]` onto the constraint level `φ = 0` along `∂φ/∂ξ` (a few Newton steps on
+/// the generated `constraint_residual`; one is exact for a `γ` that does not depend on `ξ`).
+/// Returns `|φ|` before the move.
+pub fn onto_constraint_level<M: Model>(x: &mut [f64], params: &[f64]) -> f64 {
+    let mut grad = vec![0.0; M::XIDOT.start];
+    let before = M::constraint_residual(x, params, &mut grad);
+    let mut phi = before;
+    for _ in 0..8 {
+        let g = &grad[M::XI];
+        let g2: f64 = g.iter().map(|v| v * v).sum();
+        if phi == 0.0 || g2.is_nan() || g2 <= 0.0 {
+            break;
+        }
+        let step = phi / g2;
+        let g = g.to_vec();
+        x[M::XI]
+            .iter_mut()
+            .zip(&g)
+            .for_each(|(xi, gi)| *xi -= step * gi);
+        let next = M::constraint_residual(x, params, &mut grad);
+        if next.is_nan() || next.abs() >= phi.abs() {
+            break;
+        }
+        phi = next;
+    }
+    before
+}
+
 /// The rank test at `points` uniform times of `sol`'s interval.
 pub fn rank_along<M: Model>(sol: &LieSolution<M>, points: usize, rtol: f64) -> RankAlong {
-    let dim_m = M::XIDOT.start - 2;
+    let conserves_energy = sol.problem.conserves_energy();
+    let dim_m = M::XIDOT.start - if conserves_energy { 2 } else { 1 };
     let (a, b) = (sol.problem.t0, sol.terminal_time());
     let mut y = vec![0.0; M::N_STATE];
     let mut samples = Vec::with_capacity(points);
@@ -80,20 +115,18 @@ pub fn rank_along<M: Model>(sol: &LieSolution<M>, points: usize, rtol: f64) -> R
         let t = a + (b - a) * k as f64 / (points.max(2) - 1) as f64;
         sol.state_into(t, &mut y);
         let mut x = y[..M::XIDOT.start].to_vec();
-        // The solution keeps ⟨Ω, ξ⟩ = 0 to ~1e-10, and off M the rank rises by one with a
-        // singular value ∝ |⟨Ω, ξ⟩|: test the state of M nearest to it (ξ projected onto Ω^⊥)
-        // and report the violation separately.
-        let (om, xi) = x.split_at_mut(M::XI.start);
-        let xi = &mut xi[..M::DIM];
-        let dot: f64 = om.iter().zip(xi.iter()).map(|(a, b)| a * b).sum();
-        let om2: f64 = om.iter().map(|v| v * v).sum();
-        let xi_norm = xi.iter().map(|v| v * v).sum::<f64>().sqrt();
-        violation = violation.max(dot.abs() / (om2.sqrt() * xi_norm));
-        xi.iter_mut()
-            .zip(om.iter())
-            .for_each(|(x, o)| *x -= o * dot / om2.max(f64::MIN_POSITIVE));
-        let norm = xi.iter().map(|v| v * v).sum::<f64>().sqrt();
-        xi.iter_mut().for_each(|v| *v /= norm);
+        // The solution keeps φ = 0 to ~1e-10, and off the constraint level the rank rises by
+        // one with a singular value ∝ |φ|: test the state of M nearest to it and report the
+        // violation separately.
+        let norm = |v: &[f64]| v.iter().map(|e| e * e).sum::<f64>().sqrt();
+        let scale = norm(&x[M::OMEGA]) * norm(&x[M::XI]);
+        let phi = onto_constraint_level::<M>(&mut x, sol.problem.params());
+        violation = violation.max(phi.abs() / scale);
+        if conserves_energy {
+            // ⟨Ω, ξ⟩ = 0 is homogeneous in ξ: scale it to unit length.
+            let xi_norm = norm(&x[M::XI]);
+            x[M::XI].iter_mut().for_each(|v| *v /= xi_norm);
+        }
         let sv = singular_values::<M>(&x, sol.problem.params());
         let top = sv[0];
         let rank = sv.iter().filter(|s| **s > rtol * top).count();

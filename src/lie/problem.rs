@@ -13,9 +13,36 @@
 //! ```
 //!
 //! Every size, block and index is the model's ([`Model`] constants); nothing here knows a
-//! dimension. The kinetic energy `½⟨Ω, 𝕀Ω⟩` is conserved by every model with constraint value
-//! 0 (`Ṫ = λ⟨Ω, ξ⟩ = 0` on the constraint, checked per model in `tests/models_generic.rs`), so
-//! `Ω_b` must lie on the level set of `Ω_a`.
+//! dimension.
+//!
+//! # The constraint level and the energy
+//!
+//! Suslov's equations keep `φ = ⟨Ω, ξ⟩ − γ(ξ)` constant (the multiplier λ is chosen so), but
+//! its value is set by the initial data, and `ξ(a)` is free. The kinetic energy balances as
+//! `Ṫ = λ⟨Ω, ξ⟩`.
+//! - **Constraint value 0** (the paper): `Ṫ = λφ`, so a motion with `φ ≠ 0` leaves the energy
+//!   level set of `Ω_a` unless `∫λ = 0`. With `Ω_b` on that level set (required, checked), the
+//!   paper's conditions above select `φ = 0`: within `φ = 0` the motion stays on the level
+//!   set and `Ω(b) = Ω_b` is `n − 1` conditions, the last one holds by itself.
+//! - **A nonzero constraint value** (`M::HAS_CONSTRAINT_VALUE`, e.g. `⟨Ω, ξ⟩ = c`): the energy is
+//!   not conserved (`Ṫ = λγ`), `Ω_b` may be anywhere, and nothing selects `φ = 0`: the paper's
+//!   conditions, solved as they stand, return a motion on another constraint level (measured in
+//!   `tests/lie_inhomogeneous.rs`). The start therefore imposes `φ(a) = 0` with a multiplier
+//!   `μ`, an unknown parameter of the BVP: `ξ(a)` is free on `{φ = 0}` only, so the natural
+//!   condition becomes `p_ξ(a) = μ ∂φ/∂ξ` (the generated `bc_start_constrained`, `2n + 1`
+//!   rows; [`LieBvp::start_constraint`]).
+//!
+//! The two forms do not mix: with a vanishing constraint value the start constraint is
+//! redundant and its form singular. `φ(a) = 0` and the energy part of `Ω(b) = Ω_b` are then
+//! the same condition (`T(b) − T(a) = φ(a) ∫λ`), and the costates are determined only up to
+//! `ν [𝕀Ω − Λξ; −ΛΩ]` with `Λ̇ = λ`, `Λ(b) = 0`, which shifts `μ` by `−ν Λ(a)`: the BVP has a
+//! line of solutions with the same motion. With `c ≠ 0` it is regular (`Ṫ = λ(φ + c)` on the
+//! motion breaks the tie). So the paper's form is used whenever the constraint value vanishes
+//! (every `γ ≡ 0` model, and `c = 0`), the start constraint otherwise; the homotopy switches
+//! from one to the other when it leaves `c = 0` ([`super::solve`]).
+//!
+//! Unknown parameters: `[T]` (free terminal time), then `[μ]` (with the start constraint), in
+//! this order ([`LieBvp::span_index`], [`LieBvp::mu_index`]).
 
 use std::marker::PhantomData;
 use std::sync::Arc;
@@ -61,16 +88,13 @@ pub enum ProblemError {
         /// Its generated documentation (with the range).
         doc: &'static str,
     },
-    /// The model has constraint-value parameters, which this layer does not solve yet.
+    /// `Ω_b = 0` with a nonzero constraint value: `⟨Ω(b), ξ(b)⟩ = γ ≠ 0` needs `Ω(b) ≠ 0`.
     #[error(
-        "model {model} has a constraint value <xi, Omega> = gamma(xi) (parameters {names}); the \
-         problem layer solves only models with constraint value 0 so far (energy conservation \
-         is what the start and the checks rely on)"
+        "omega_b must be nonzero: the constraint <Omega, xi> = gamma(xi) has a nonzero value \
+         ({names}), which no xi meets at Omega = 0"
     )]
-    ConstraintValue {
-        /// The model.
-        model: &'static str,
-        /// Its constraint parameters.
+    ZeroOmegaB {
+        /// The constraint parameters and their values.
         names: String,
     },
     /// The inertia is not symmetric positive definite.
@@ -219,16 +243,6 @@ impl<M: Model> Problem<M> {
                 });
             }
         }
-        if !M::CONSTRAINT_PARAMS.is_empty() {
-            return Err(ProblemError::ConstraintValue {
-                model: M::NAME,
-                names: M::CONSTRAINT_PARAMS
-                    .iter()
-                    .map(|m| m.name)
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            });
-        }
         let mut params = vec![0.0; M::N_PARAM];
         params[..M::N_USER_PARAM].copy_from_slice(user);
         fill_derived::<M>(&mut params)?;
@@ -265,6 +279,16 @@ impl<M: Model> Problem<M> {
         if problem.omega_a.iter().all(|x| *x == 0.0) {
             return Err(ProblemError::ZeroOmegaA);
         }
+        let conserves_energy = problem.conserves_energy();
+        if !conserves_energy && problem.omega_b.iter().all(|x| *x == 0.0) {
+            return Err(ProblemError::ZeroOmegaB {
+                names: M::CONSTRAINT_PARAMS
+                    .iter()
+                    .map(|m| format!("{} = {}", m.name, problem.params[m.index]))
+                    .collect::<Vec<_>>()
+                    .join(", "),
+            });
+        }
         let set = LevelSet::through(&problem.inertia_matrix(), M::DIM, &problem.omega_a).map_err(
             |e| match e {
                 PathError::LevelOutOfRange { level, .. } => {
@@ -275,7 +299,7 @@ impl<M: Model> Problem<M> {
         )?;
         let mismatch = set.relative_mismatch(&problem.omega_b);
         let on_level_set = mismatch.abs() <= ENERGY_REL_TOL; // false for NaN
-        if !on_level_set {
+        if conserves_energy && !on_level_set {
             let projection = set
                 .project(&problem.omega_b)
                 .unwrap_or_else(|_| vec![f64::NAN; M::DIM]);
@@ -313,11 +337,21 @@ impl<M: Model> Problem<M> {
             .map(|m| self.params[m.index])
     }
 
-    /// Set the weight at `index` (an index into `p`) to `value` (homotopy snapshots; the
-    /// derived constants depend on the inertia only).
+    /// Set the weight or constraint parameter at `index` (an index into `p`) to `value`
+    /// (homotopy snapshots; the derived constants depend on the inertia only).
     pub(crate) fn set_weight(&mut self, index: usize, value: f64) {
-        debug_assert!(M::WEIGHTS.iter().any(|w| w.index == index));
+        debug_assert!(M::WEIGHTS
+            .iter()
+            .chain(M::CONSTRAINT_PARAMS)
+            .any(|w| w.index == index));
         self.params[index] = value;
+    }
+
+    /// Whether the kinetic energy is conserved: the constraint value vanishes for these
+    /// constants ([`crate::model::constraint_value_vanishes`]). Then `Ω_b` is on the level set
+    /// of `Ω_a`; otherwise the energy balances as `Ṫ = λγ`.
+    pub fn conserves_energy(&self) -> bool {
+        crate::model::constraint_value_vanishes::<M>(&self.params)
     }
 
     /// The inertia operator `𝕀` (row-major `n × n`).
@@ -357,14 +391,21 @@ pub struct LieBvp<'a, M: Model> {
     pub params: Vec<f64>,
     /// `Ω(a)`.
     pub omega_a: &'a [f64],
-    /// `Ω(b)`.
-    pub omega_b: &'a [f64],
+    /// `Ω(b)` (owned: the constraint stage of the homotopy moves it).
+    pub omega_b: Vec<f64>,
     /// `a`.
     pub t0: f64,
     /// `Some(T)` for a fixed terminal time, `None` when `T` is the unknown parameter.
     pub fixed_span: Option<f64>,
     /// `Ω_d`.
     pub desired: &'a dyn Path,
+    /// Whether the start imposes `φ(a) = 0` with the multiplier `μ` (module docs): true
+    /// exactly when the constraint value does not vanish.
+    pub start_constraint: bool,
+    /// With the start constraint: impose `φ(a) = −level_shift` instead, i.e. the constraint
+    /// level `⟨Ω, ξ⟩ = γ − level_shift` (0 but in the homotopy's constraint stage,
+    /// [`super::solve`]).
+    pub level_shift: f64,
     /// The model.
     pub model: PhantomData<M>,
 }
@@ -379,16 +420,47 @@ impl<'a, M: Model> LieBvp<'a, M> {
         Self {
             params: problem.params.clone(),
             omega_a: &problem.omega_a,
-            omega_b: &problem.omega_b,
+            omega_b: problem.omega_b.clone(),
             t0: problem.t0,
             fixed_span,
             desired: &*problem.desired,
+            start_constraint: !problem.conserves_energy(),
+            level_shift: 0.0,
             model: PhantomData,
         }
     }
 
     fn span(&self, p: &[f64]) -> f64 {
         self.fixed_span.unwrap_or_else(|| p[SPAN])
+    }
+
+    /// Index of `T` among the unknown parameters (free terminal time only).
+    pub fn span_index(&self) -> Option<usize> {
+        self.fixed_span.is_none().then_some(SPAN)
+    }
+
+    /// Index of the start multiplier `μ` among the unknown parameters (with the start
+    /// constraint only; module docs).
+    pub fn mu_index(&self) -> Option<usize> {
+        self.start_constraint
+            .then_some(usize::from(self.fixed_span.is_none()))
+    }
+
+    /// The unknown parameters `[T?, μ?]` from their values.
+    pub fn parameters(&self, t_span: f64, mu: f64) -> Vec<f64> {
+        let mut p = vec![0.0; self.k()];
+        if let Some(i) = self.span_index() {
+            p[i] = t_span;
+        }
+        if let Some(i) = self.mu_index() {
+            p[i] = mu;
+        }
+        p
+    }
+
+    /// Number of boundary conditions at `a`.
+    fn n_bc_start(&self) -> usize {
+        M::N_BC_ENDPOINT + usize::from(self.start_constraint)
     }
 
     /// Writes `w = [Ω_d(t), Ω̇_d(t)]` (`M::N_DESIRED` entries) into `w`.
@@ -406,7 +478,7 @@ impl<M: Model> BvpProblem for LieBvp<'_, M> {
     }
 
     fn k(&self) -> usize {
-        usize::from(self.fixed_span.is_none())
+        usize::from(self.fixed_span.is_none()) + usize::from(self.start_constraint)
     }
 
     fn f(&self, s: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
@@ -423,19 +495,32 @@ impl<M: Model> BvpProblem for LieBvp<'_, M> {
             let (w, dgdt) = buf.split_at_mut(M::N_DESIRED);
             self.desired_at(self.t0 + s * t_span, w);
             M::ode_jac_scaled(y, &self.params, w, t_span, s, dfdy, dgdt);
-            if self.fixed_span.is_none() {
-                dfdp.copy_from_slice(dgdt);
+            // `dfdp` is n x k, row-major: the T column (free time), and 0 for μ (the ODE does
+            // not contain it).
+            dfdp.fill(0.0);
+            if let Some(j) = self.span_index() {
+                let k = self.k();
+                for (row, d) in dgdt.iter().enumerate() {
+                    dfdp[row * k + j] = *d;
+                }
             }
         });
         true
     }
 
     fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
-        // Rows: N_BC_ENDPOINT conditions at a, as many at b, then the free-time condition.
-        let (at_a, rest) = res.split_at_mut(M::N_BC_ENDPOINT);
+        // Rows: the conditions at a (N_BC_ENDPOINT, plus phi(a) = 0 with a constraint value),
+        // N_BC_ENDPOINT at b, then the free-time condition.
+        let (at_a, rest) = res.split_at_mut(self.n_bc_start());
         let (at_b, free_time) = rest.split_at_mut(M::N_BC_ENDPOINT);
-        M::bc_endpoint(ya, &self.params, self.omega_a, at_a);
-        M::bc_endpoint(yb, &self.params, self.omega_b, at_b);
+        match self.mu_index() {
+            Some(i) => {
+                M::bc_start_constrained(ya, &self.params, self.omega_a, p[i], at_a);
+                at_a[M::N_BC_ENDPOINT] += self.level_shift; // the row φ(a)
+            }
+            None => M::bc_endpoint(ya, &self.params, self.omega_a, at_a),
+        }
+        M::bc_endpoint(yb, &self.params, &self.omega_b, at_b);
         if self.fixed_span.is_none() {
             with_buffer(M::N_DESIRED, |wb| {
                 self.desired_at(self.t0 + p[SPAN], wb);
@@ -453,19 +538,39 @@ impl<M: Model> BvpProblem for LieBvp<'_, M> {
         dyb: &mut [f64],
         dp: &mut [f64],
     ) -> bool {
-        let (n, nb) = (M::N_STATE, M::N_BC_ENDPOINT);
+        let (n, nb, na, k) = (M::N_STATE, M::N_BC_ENDPOINT, self.n_bc_start(), self.k());
         dya.fill(0.0);
         dyb.fill(0.0);
         dp.fill(0.0);
-        // Row-major: rows 0..nb are the conditions at a, nb..2nb those at b.
-        M::bc_endpoint_jac(ya, &self.params, self.omega_a, &mut dya[..nb * n]);
-        M::bc_endpoint_jac(yb, &self.params, self.omega_b, &mut dyb[nb * n..2 * nb * n]);
+        // Row-major: rows 0..na are the conditions at a, na..na + nb those at b.
+        match self.mu_index() {
+            Some(i) => with_buffer(na, |d_mu| {
+                M::bc_start_constrained_jac(
+                    ya,
+                    &self.params,
+                    self.omega_a,
+                    p[i],
+                    &mut dya[..na * n],
+                    d_mu,
+                );
+                for (row, d) in d_mu.iter().enumerate() {
+                    dp[row * k + i] = *d;
+                }
+            }),
+            None => M::bc_endpoint_jac(ya, &self.params, self.omega_a, &mut dya[..na * n]),
+        }
+        M::bc_endpoint_jac(
+            yb,
+            &self.params,
+            &self.omega_b,
+            &mut dyb[na * n..(na + nb) * n],
+        );
         if self.fixed_span.is_none() {
-            let row = 2 * nb;
+            let row = na + nb;
             with_buffer(M::N_DESIRED, |wb| {
                 self.desired_at(self.t0 + p[SPAN], wb);
-                // `dp` is (n + k) x k with k = 1.
-                dp[row * self.k() + SPAN] = M::free_time_condition_jac(
+                // `dp` is (n + k) x k, row-major.
+                dp[row * k + SPAN] = M::free_time_condition_jac(
                     yb,
                     &self.params,
                     wb,

@@ -17,12 +17,29 @@
 //!    - tracking weight 0: `Ω_p` = the projected segment, tracked with weight 1, continued to
 //!      0 (case 1).
 //! 2. **Tracking stage** (cases 1, 2), 3. **β stage** (`β_m → β`, geometric), 4. **smoothing
-//!    stage** (`0 → η`), 5. **time stage** (free terminal time: `T` becomes unknown; the
-//!    `Time` weight goes from `δ_c`, the generated `delta_start`, to its target), 6. **polish**
-//!    at the requested tolerance.
+//!    stage** (`0 → η`), 5. **constraint stage** (models with a constraint value, below),
+//!    6. **time stage** (free terminal time: `T` becomes unknown; the `Time` weight goes from
+//!    `δ_c`, the generated `delta_start`, to its target), 7. **polish** at the requested
+//!    tolerance.
 //!
-//! The stage records, the options and the progress events are those of the so(3) layer
-//! ([`StageReport`], [`SolveOptions`], [`Event`]): they know no model.
+//! **A nonzero constraint value** (`⟨Ω, ξ⟩ = γ` constant, e.g. the inhomogeneous Suslov
+//! problem): the analytic start needs the energy level set, which only `γ = 0` keeps, and the
+//! start constraint `φ(a) = 0` of [`super::problem`] is singular at `γ = 0`. So stages 1–4
+//! solve the problem with every `Constraint` parameter at 0, `Ω_b` replaced by its radial
+//! projection `Ω_b⁰` onto the level set of `Ω_a`, and the paper's boundary conditions. Then
+//! (`Homotopy::constraint_stages`), using that a constant `γ` enters the optimality system only
+//! through the start constraint:
+//! - **A.** the end state moves off the level set (paper's conditions) to `Ω_b` (or, when
+//!   `Ω_b` is on it, to `1.1 Ω_b⁰`): the motion's constraint level `k ≠ 0` follows from
+//!   `T(b) − T(a) = k ∫λ dt`. If `k` has the other sign than `γ`, the motion is mirrored,
+//!   `(ξ, ξ̇) → −(ξ, ξ̇)` (same `Ω`, level `−k`: λ is odd in ξ and λξ even), and re-solved,
+//!   which checks that the model's cost is even in ξ (else the route is reported as missing);
+//! - **B.** the start constraint is switched on at the target constants with its level shifted
+//!   to `k` (`μ = 0` solves it exactly there) and the level is continued from `k` to `γ`,
+//!   never through 0;
+//! - **C.** the end state is continued to `Ω_b` at the level `γ` (regular there).
+//!
+//! A `γ` that depends on `ξ` is refused (it would change Suslov's equations).
 
 use std::sync::Arc;
 
@@ -78,6 +95,12 @@ impl<M: Model> LieSolution<M> {
         self.bvp.eval_into((t - self.problem.t0) / self.t_span, y);
     }
 
+    /// The multiplier `μ` of the start constraint `φ(a) = 0` (models with a constraint value;
+    /// [`super::problem`]), or `None`.
+    pub fn start_multiplier(&self) -> Option<f64> {
+        LieBvp::new(&self.problem).mu_index().map(|i| self.bvp.p[i])
+    }
+
     /// `y(t)` as a vector.
     pub fn state(&self, t: f64) -> Vec<f64> {
         let mut y = vec![0.0; M::N_STATE];
@@ -119,6 +142,12 @@ pub enum LieSolveError<M: Model> {
         /// The last converged solution.
         partial: Box<LieSolution<M>>,
     },
+    /// The continuation to a nonzero constraint value found no route (says why).
+    #[error("no continuation route to the constraint value: {0}")]
+    ConstraintRoute(String),
+    /// The problem has a feature the homotopy does not handle (says which).
+    #[error("not supported: {0}")]
+    Unsupported(String),
     /// Invalid input reached the BVP solver (a bug in this layer).
     #[error("BVP solver rejected its input: {0}")]
     Bvp(#[from] bvp::BvpError),
@@ -316,10 +345,35 @@ fn choose_start<M: Model>(
     Ok((segment()?, choice("projected segment", 1)))
 }
 
+/// What a homotopy stage continues: the constants, the end state and the start constraint's
+/// level shift.
+#[derive(Clone)]
+struct Member {
+    params: Vec<f64>,
+    omega_b: Vec<f64>,
+    level_shift: f64,
+}
+
+/// A homotopy stage: `at(λ, member)` moves a copy of the current member to `λ ∈ [0, 1]` and
+/// returns the value of the reported `parameter` there (`from` at 0, `to` at 1).
+struct StageSpec<'a> {
+    name: &'static str,
+    parameter: &'static str,
+    from: f64,
+    to: f64,
+    at: &'a dyn Fn(f64, &mut Member) -> f64,
+}
+
 /// The working state of the homotopy.
 struct Homotopy<'p, M: Model> {
     problem: &'p Problem<M>,
     params: Vec<f64>,
+    /// The current end state (`Ω_b⁰` before the constraint stage, then `Ω_b`).
+    omega_b: Vec<f64>,
+    /// Whether the BVP imposes the start constraint (from the constraint stage on).
+    start_constraint: bool,
+    /// The start constraint's level shift ([`LieBvp::level_shift`]).
+    level_shift: f64,
     fixed_span: Option<f64>,
     t_span: f64,
     solution: Solution,
@@ -334,9 +388,11 @@ impl<M: Model> Homotopy<'_, M> {
         LieBvp {
             params,
             omega_a: &self.problem.omega_a,
-            omega_b: &self.problem.omega_b,
+            omega_b: self.omega_b.clone(),
             t0: self.problem.t0,
             fixed_span,
+            start_constraint: self.start_constraint,
+            level_shift: self.level_shift,
             desired: &*self.tracking,
             model: std::marker::PhantomData,
         }
@@ -344,9 +400,10 @@ impl<M: Model> Homotopy<'_, M> {
 
     fn snapshot(&self) -> LieSolution<M> {
         let mut problem = self.problem.clone();
-        for w in M::WEIGHTS {
+        for w in M::WEIGHTS.iter().chain(M::CONSTRAINT_PARAMS) {
             problem.set_weight(w.index, self.params[w.index]);
         }
+        problem.omega_b.clone_from(&self.omega_b);
         if self.fixed_span.is_none() {
             problem.terminal = TerminalTime::Free {
                 guess: problem.t0 + self.t_span,
@@ -401,14 +458,53 @@ impl<M: Model> Homotopy<'_, M> {
         opts: &continuation::Options,
         events: &mut dyn FnMut(&Event),
     ) -> Result<(), LieSolveError<M>> {
+        let at = |lambda: f64, m: &mut Member| {
+            m.params[index] = value(lambda);
+            m.params[index]
+        };
+        let spec = StageSpec {
+            name,
+            parameter: M::PARAM_NAMES[index],
+            from,
+            to,
+            at: &at,
+        };
+        self.stage_with(&spec, opts, events)
+    }
+
+    /// The family member the homotopy stands on.
+    fn member(&self) -> Member {
+        Member {
+            params: self.params.clone(),
+            omega_b: self.omega_b.clone(),
+            level_shift: self.level_shift,
+        }
+    }
+
+    /// Continue along `spec.at(λ, member)`, `λ ∈ [0, 1]`, from the current member.
+    fn stage_with(
+        &mut self,
+        spec: &StageSpec<'_>,
+        opts: &continuation::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        let StageSpec { name, from, to, .. } = *spec;
         let clock = std::time::Instant::now();
         events(&Event::StageStarted { name, from, to });
-        let base = self.params.clone();
+        let base = self.member();
         let fixed_span = self.fixed_span;
+        let at = |lambda: f64| -> (Member, f64) {
+            let mut m = base.clone();
+            let reported = (spec.at)(lambda, &mut m);
+            (m, reported)
+        };
         let family = |lambda: f64| {
-            let mut p = base.clone();
-            p[index] = value(lambda);
-            self.bvp_with(p, fixed_span)
+            let (m, _) = at(lambda);
+            LieBvp {
+                omega_b: m.omega_b,
+                level_shift: m.level_shift,
+                ..self.bvp_with(m.params, fixed_span)
+            }
         };
         let shared = std::cell::RefCell::new(&mut *events);
         let outcome = continuation::natural_with_progress(
@@ -431,12 +527,17 @@ impl<M: Model> Homotopy<'_, M> {
                 })
             },
         )?;
-        self.params[index] = value(outcome.lambda);
+        let (reached_member, reached) = at(outcome.lambda);
+        (self.params, self.omega_b, self.level_shift) = (
+            reached_member.params,
+            reached_member.omega_b,
+            reached_member.level_shift,
+        );
         self.solution = outcome.solution.clone();
         if self.fixed_span.is_none() {
             self.t_span = self.solution.p[SPAN];
         }
-        let report = StageReport {
+        let stage_report = StageReport {
             name,
             from,
             to,
@@ -453,7 +554,128 @@ impl<M: Model> Homotopy<'_, M> {
                 }
             },
         };
-        self.record(report, M::PARAM_NAMES[index], value(outcome.lambda), events)
+        self.record(stage_report, spec.parameter, reached, events)
+    }
+
+    /// The constraint level `⟨Ω, ξ⟩ − γ` (`φ`) of the current solution, at `a` (it is conserved).
+    fn constraint_level(&self) -> f64 {
+        let y = self.solution.eval(0.0);
+        let mut grad = vec![0.0; M::XIDOT.start];
+        M::constraint_residual(&y[..M::XIDOT.start], &self.params, &mut grad)
+    }
+
+    /// Stages A–C of a nonzero constant constraint value `γ` (module docs), from the solution
+    /// of the problem without it (constraint parameters 0, end state `Ω_b⁰` on the level set,
+    /// the paper's boundary conditions). Uses that `γ` enters the optimality system only
+    /// through the start constraint (Suslov's equations contain `γ̇ = 0`).
+    fn constraint_stages(
+        &mut self,
+        target: &Problem<M>,
+        opts: &continuation::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        let gamma = crate::model::constant_constraint_value::<M>(target.params());
+        let set = target.level_set();
+        // A. The end state moves off the level set with the paper's conditions; the motion's
+        // constraint level k follows (T(b) − T(a) = k ∫λ). To Ω_b itself when it is off the
+        // level set, else to Ω_b⁰ scaled by 1.1.
+        let aside: Vec<f64> = if set.relative_mismatch(&target.omega_b).abs() > 1e-3 {
+            target.omega_b.clone()
+        } else {
+            self.omega_b.iter().map(|v| 1.1 * v).collect()
+        };
+        let towards = |to: Vec<f64>| {
+            move |lambda: f64, m: &mut Member| {
+                m.omega_b = from_to(&m.omega_b, &to, lambda);
+                lambda
+            }
+        };
+        let move_aside = towards(aside.clone());
+        self.stage_with(
+            &StageSpec {
+                name: "end state (paper's conditions)",
+                parameter: "fraction of the way to the end state",
+                from: 0.0,
+                to: 1.0,
+                at: &move_aside,
+            },
+            opts,
+            events,
+        )?;
+        self.omega_b.clone_from(&aside);
+        let mut level = self.constraint_level();
+        if !(level.is_finite() && level != 0.0) {
+            return Err(LieSolveError::ConstraintRoute(format!(
+                "the motion to the end state {aside:?} has the constraint level <Omega, xi> = \
+                 {level:e}; the continuation in the level needs a nonzero start"
+            )));
+        }
+        if level * gamma < 0.0 {
+            // The mirror (ξ, ξ̇) → −(ξ, ξ̇) maps a motion on level k to one on −k with the same
+            // Ω (λξ is even in ξ) when the cost is even in ξ; the solve checks that it is.
+            let mut y = self.solution.y.clone();
+            for row in y.chunks_exact_mut(M::N_STATE) {
+                row[M::XI.start..M::XIDOT.end]
+                    .iter_mut()
+                    .for_each(|v| *v = -*v);
+            }
+            let guess = Guess::from_values(self.solution.x.clone(), y, self.solution.p.clone());
+            self.single_solve("mirror xi -> -xi", &guess, &opts.bvp, events)?;
+            level = self.constraint_level();
+            if (level * gamma).is_nan() || level * gamma <= 0.0 {
+                return Err(LieSolveError::ConstraintRoute(format!(
+                    "the motion has the constraint level {:e}, of the other sign than the \
+                     target value {gamma}, and its mirror xi -> -xi does not solve the problem \
+                     (the model's cost is not even in xi); no continuation in the level \
+                     reaches the target without crossing 0",
+                    -level
+                )));
+            }
+        }
+        // B. The start constraint at the target constants, its level shifted to k, then
+        // continued to γ; μ = 0 is exact at the start (the paper's conditions hold there).
+        for c in M::CONSTRAINT_PARAMS {
+            self.params[c.index] = target.params()[c.index];
+        }
+        self.start_constraint = true;
+        self.level_shift = gamma - level;
+        self.solution.p = self
+            .bvp_with(self.params.clone(), self.fixed_span)
+            .parameters(self.t_span, 0.0);
+        let shift0 = self.level_shift;
+        let to_level = move |lambda: f64, m: &mut Member| {
+            m.level_shift = (1.0 - lambda) * shift0;
+            gamma - m.level_shift
+        };
+        self.stage_with(
+            &StageSpec {
+                name: "constraint",
+                parameter: "<Omega, xi> - gamma + (the target gamma)",
+                from: level,
+                to: gamma,
+                at: &to_level,
+            },
+            opts,
+            events,
+        )?;
+        self.level_shift = 0.0;
+        // C. The end state to Ω_b at the target level.
+        if self.omega_b != target.omega_b {
+            let to_target = towards(target.omega_b.clone());
+            self.stage_with(
+                &StageSpec {
+                    name: "end state",
+                    parameter: "fraction of the way to the end state",
+                    from: 0.0,
+                    to: 1.0,
+                    at: &to_target,
+                },
+                opts,
+                events,
+            )?;
+            self.omega_b.clone_from(&target.omega_b);
+        }
+        Ok(())
     }
 
     /// One BVP solve with the current constants from `guess`.
@@ -505,6 +727,31 @@ impl<M: Model> Homotopy<'_, M> {
     }
 }
 
+/// `a + λ (b − a)`, entrywise.
+fn from_to(a: &[f64], b: &[f64], lambda: f64) -> Vec<f64> {
+    a.iter().zip(b).map(|(x, y)| x + lambda * (y - x)).collect()
+}
+
+/// The problem the analytic start and stages 1–4 solve (module docs): `problem` itself when
+/// its constraint value vanishes, else a copy with every `Constraint` parameter at 0 and `Ω_b`
+/// projected radially onto the energy level set of `Ω_a`.
+fn constraint_free<M: Model>(problem: &Problem<M>) -> Result<Problem<M>, LieSolveError<M>> {
+    let mut base = problem.clone();
+    if problem.conserves_energy() {
+        return Ok(base);
+    }
+    for c in M::CONSTRAINT_PARAMS {
+        base.set_weight(c.index, 0.0);
+    }
+    base.omega_b = problem.level_set().project(&problem.omega_b).map_err(|e| {
+        LieSolveError::Start(format!(
+            "cannot project omega_b onto the energy level set of omega_a, where the start \
+             (constraint value 0) must end: {e}"
+        ))
+    })?;
+    Ok(base)
+}
+
 /// Solve `problem` from the analytic singular solution through the staged homotopy.
 pub fn solve<M: Model>(
     problem: &Problem<M>,
@@ -532,6 +779,15 @@ pub fn solve<M: Model>(
     let gamma = tracking.map_or(0.0, |i| p[i]);
     let b_p = problem.terminal.initial();
     let t_p = b_p - problem.t0;
+    // Stages 1-4 solve the problem without its constraint value, ending at Ω_b⁰ (module docs).
+    if M::CONSTRAINT_VALUE_DEPENDS_ON_XI && !problem.conserves_energy() {
+        return Err(LieSolveError::Unsupported(format!(
+            "model {}: the constraint value gamma(xi) depends on xi; the homotopy continues \
+             constant constraint values only (they leave Suslov's equations unchanged)",
+            M::NAME
+        )));
+    }
+    let base = constraint_free(problem)?;
     let beta_m = options.beta_m.unwrap_or_else(|| {
         // 1e-2 · min(fixed positive weights, β, γ or 1), as the so(3) layer.
         let g = if gamma > 0.0 { gamma } else { 1.0 };
@@ -542,9 +798,9 @@ pub fn solve<M: Model>(
             .fold(p[beta].min(g), f64::min)
             * 1e-2
     });
-    let (omega_p, start) = choose_start(problem, b_p, beta_m, gamma > 0.0, options.start)?;
+    let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, options.start)?;
 
-    let mut params = p.to_vec();
+    let mut params = base.params().to_vec();
     params[beta] = beta_m;
     for &i in &smoothing {
         params[i] = 0.0;
@@ -563,7 +819,19 @@ pub fn solve<M: Model>(
     let m = options.initial_intervals.max(2);
     let x: Vec<f64> = (0..=m).map(|i| i as f64 / m as f64).collect();
     let mut bad = None;
-    let guess = Guess::from_fn(&x, M::N_STATE, vec![], |s, out| {
+    let start_bvp = LieBvp::<M> {
+        params: params.clone(),
+        omega_a: &base.omega_a,
+        omega_b: base.omega_b.clone(),
+        t0: base.t0,
+        fixed_span: Some(t_p),
+        desired: &*base.desired,
+        start_constraint: false,
+        level_shift: 0.0,
+        model: std::marker::PhantomData,
+    };
+    // μ = 0: the start lies on the constraint level φ = 0 (ξ_p is along ξ~ ⊥ Ω_p).
+    let guess = Guess::from_fn(&x, M::N_STATE, start_bvp.parameters(t_p, 0.0), |s, out| {
         let t = problem.t0 + s * t_p;
         with_buffer(4 * n + 2 * n, |buf| {
             let (jet, xi) = buf.split_at_mut(4 * n);
@@ -611,13 +879,8 @@ pub fn solve<M: Model>(
         problem.desired.clone()
     };
     let start_bvp = LieBvp::<M> {
-        params: params.clone(),
-        omega_a: &problem.omega_a,
-        omega_b: &problem.omega_b,
-        t0: problem.t0,
-        fixed_span: Some(t_p),
         desired: &*tracked,
-        model: std::marker::PhantomData,
+        ..start_bvp
     };
     let first = bvp::solve_with_progress(
         &start_bvp,
@@ -659,6 +922,9 @@ pub fn solve<M: Model>(
     let mut h = Homotopy {
         problem,
         params,
+        omega_b: base.omega_b.clone(),
+        start_constraint: false,
+        level_shift: 0.0,
         fixed_span: Some(t_p),
         t_span: t_p,
         solution: first,
@@ -698,6 +964,9 @@ pub fn solve<M: Model>(
             h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
         }
     }
+    if !problem.conserves_energy() {
+        h.constraint_stages(problem, &cont, events)?;
+    }
     if let Some(i) = time {
         let target = p[i];
         match problem.terminal {
@@ -711,7 +980,13 @@ pub fn solve<M: Model>(
                 let delta_c = M::delta_start(&yb, &h.params, &wb);
                 h.params[i] = delta_c;
                 h.fixed_span = None;
-                let guess = Guess::from_solution(&h.solution).with_parameters(vec![t_p]);
+                let mu = h
+                    .bvp_with(h.params.clone(), Some(t_p))
+                    .mu_index()
+                    .map_or(0.0, |i| h.solution.p[i]);
+                let free = h.bvp_with(h.params.clone(), None);
+                let guess =
+                    Guess::from_solution(&h.solution).with_parameters(free.parameters(t_p, mu));
                 h.single_solve(
                     "free-time start",
                     &guess,

@@ -126,6 +126,39 @@ pub fn fill_derived<M: Model>(p: &mut [f64]) -> Result<(), DerivedError> {
     Ok(())
 }
 
+/// Whether the constraint value `γ(ξ)` of `M` vanishes for the constants `p` (then
+/// `⟨Ω, ξ⟩ = 0` and the kinetic energy is conserved), judged from the generated
+/// `constraint_residual`: `γ(ξ) = −φ(0, ξ)` at the basis directions and one mixed `ξ`, each of
+/// unit and of double length. Always true for a model without a constraint value.
+pub fn constraint_value_vanishes<M: Model>(p: &[f64]) -> bool {
+    if !M::HAS_CONSTRAINT_VALUE {
+        return true;
+    }
+    let n = M::DIM;
+    let mut x = vec![0.0; 2 * n];
+    let mut grad = vec![0.0; 2 * n];
+    let mut directions: Vec<Vec<f64>> = (0..n)
+        .map(|i| (0..n).map(|j| f64::from(u8::from(i == j))).collect())
+        .collect();
+    directions.push((0..n).map(|j| 1.0 / (1.0 + j as f64)).collect());
+    directions.iter().all(|d| {
+        [1.0, 2.0].iter().all(|scale| {
+            x[..n].fill(0.0);
+            x[n..].iter_mut().zip(d).for_each(|(v, e)| *v = scale * e);
+            M::constraint_residual(&x, p, &mut grad) == 0.0
+        })
+    })
+}
+
+/// The constraint value `γ = −φ(0, 0)` of a model whose `γ` does not depend on `ξ`
+/// (`!M::CONSTRAINT_VALUE_DEPENDS_ON_XI`; 0 for a model without a constraint value).
+pub fn constant_constraint_value<M: Model>(p: &[f64]) -> f64 {
+    debug_assert!(!M::CONSTRAINT_VALUE_DEPENDS_ON_XI);
+    let x = vec![0.0; 2 * M::DIM];
+    let mut grad = vec![0.0; 2 * M::DIM];
+    -M::constraint_residual(&x, p, &mut grad)
+}
+
 /// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
 /// solves.
 pub use so3 as generated;

@@ -404,6 +404,9 @@ pub enum CertifyError {
     /// The second-order test failed.
     #[error(transparent)]
     SecondOrder(#[from] SecondOrderError),
+    /// The problem has a feature the certificate does not handle (says which).
+    #[error("not supported: {0}")]
+    Unsupported(String),
 }
 
 /// From a candidate primal point `v0` (an indirect solution sampled at the collocation

@@ -20,5 +20,5 @@ pub use certify::{
     certify, Certificate, CertifyError, SecondOrderOptions, SecondOrderReport, Verdict,
 };
 pub use kkt::{KktError, KktPoint, KktResidual, NewtonOptions};
-pub use problem::{Boundary, Horizon, OcpProblem};
+pub use problem::{Boundary, Horizon, LinearCondition, OcpProblem};
 pub use transcription::{Transcription, TranscriptionError};

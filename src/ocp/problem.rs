@@ -60,12 +60,24 @@ impl Horizon {
     }
 }
 
-/// Boundary conditions: prescribed state components at either end. The other components
-/// are free there.
+/// Boundary conditions: prescribed state components at either end, and linear conditions on
+/// the start state. The other components are free there.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Boundary {
     /// `(component, value)` pairs prescribed at `t0`.
     pub start: Vec<(usize, f64)>,
     /// `(component, value)` pairs prescribed at `t0 + T`.
     pub end: Vec<(usize, f64)>,
+    /// Linear conditions `Σ cᵢ x_i(t0) = value` on the start state (e.g. a constraint level
+    /// `⟨Ω_a, ξ(t0)⟩ = c` once `Ω(t0)` is prescribed).
+    pub start_linear: Vec<LinearCondition>,
+}
+
+/// A linear condition `Σ coefficient · x_component = value` on a state.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LinearCondition {
+    /// `(component, coefficient)` pairs.
+    pub coefficients: Vec<(usize, f64)>,
+    /// The right-hand side.
+    pub value: f64,
 }

@@ -12,11 +12,12 @@
 //! v = [ z_0 | z_1 | … | z_{P−1} | T (only if free) ],   z_p = [x_p, u_p]
 //! ```
 //!
-//! Constraints (`n_con = 3 N n + #start + #end`), in this order:
+//! Constraints (`n_con = 3 N n + #start + #start_linear + #end`), in this order:
 //!
 //! ```text
 //! c_{k,i} = x_{3k+i} − x_{3k} − T h_k Σ_j a_ij f(t_{3k+j}, z_{3k+j}),   i = 1, 2, 3
 //! x_i(p = 0) − a_i   for the prescribed start components
+//! Σ c_i x_i(p = 0) − v for the linear start conditions
 //! x_j(p = P−1) − b_j for the prescribed end components
 //! ```
 //!
@@ -92,6 +93,13 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 }
             }
         }
+        for cond in &boundary.start_linear {
+            for (i, &(c, _)) in cond.coefficients.iter().enumerate() {
+                if c >= n || cond.coefficients[..i].iter().any(|&(d, _)| d == c) {
+                    return Err(TranscriptionError::BadBoundary(c));
+                }
+            }
+        }
         if let Horizon::Fixed { length, .. } = horizon {
             if !(length > 0.0 && length.is_finite()) {
                 return Err(TranscriptionError::BadLength(length));
@@ -140,7 +148,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
 
     /// Number of equality constraints.
     pub fn n_con(&self) -> usize {
-        3 * self.n_intervals() * self.n + self.boundary.start.len() + self.boundary.end.len()
+        3 * self.n_intervals() * self.n + self.n_start_rows() + self.boundary.end.len()
+    }
+
+    /// Number of conditions at the start (prescribed components, then linear conditions).
+    fn n_start_rows(&self) -> usize {
+        self.boundary.start.len() + self.boundary.start_linear.len()
     }
 
     /// The horizon.
@@ -322,6 +335,15 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             c[row] = v[comp] - val;
             row += 1;
         }
+        for cond in &self.boundary.start_linear {
+            c[row] = cond
+                .coefficients
+                .iter()
+                .map(|&(comp, coef)| coef * v[comp])
+                .sum::<f64>()
+                - cond.value;
+            row += 1;
+        }
         for &(comp, val) in &self.boundary.end {
             c[row] = v[last + comp] - val;
             row += 1;
@@ -371,6 +393,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let last = (self.n_points() - 1) * nz;
         for &(comp, _) in &self.boundary.start {
             out.push((row, comp, 1.0));
+            row += 1;
+        }
+        for cond in &self.boundary.start_linear {
+            for &(comp, coef) in &cond.coefficients {
+                out.push((row, comp, coef));
+            }
             row += 1;
         }
         for &(comp, _) in &self.boundary.end {
@@ -448,7 +476,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let mut groups = Vec::with_capacity(n_int + 2);
         let start_rows = nv + 3 * n_int * n;
         let mut first: Vec<usize> = (0..nz).collect();
-        first.extend(start_rows..start_rows + self.boundary.start.len());
+        first.extend(start_rows..start_rows + self.n_start_rows());
         groups.push(first);
         for k in 0..n_int {
             let mut g: Vec<usize> = ((3 * k + 1) * nz..(3 * k + 4) * nz).collect();
@@ -456,7 +484,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             groups.push(g);
         }
         let mut last: Vec<usize> = self.length_index().into_iter().collect();
-        let end_rows = start_rows + self.boundary.start.len();
+        let end_rows = start_rows + self.n_start_rows();
         last.extend(end_rows..end_rows + self.boundary.end.len());
         if !last.is_empty() {
             groups.push(last);

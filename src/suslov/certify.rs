@@ -224,6 +224,7 @@ pub fn transcription<'a>(
         // Ω is the first block of x = [Ω, ξ].
         start: (0..DIM).map(|i| (i, p.omega_a[i])).collect(),
         end: (0..DIM).map(|i| (i, p.omega_b[i])).collect(),
+        start_linear: vec![],
     };
     let horizon = match p.terminal {
         TerminalTime::Fixed(b) => Horizon::Fixed {
