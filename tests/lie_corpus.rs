@@ -4,6 +4,13 @@
 //! an error. For so(3) a solution that converges in both layers must agree (b and J to 1e-6
 //! relative): a "converged" that the other layer contradicts is counted as false.
 //!
+//! The inhomogeneous Suslov problem (`so3_inhomogeneous`, `⟨Ω, ξ⟩ = c`) has its own row, drawn
+//! from a second generator (so the other rows do not move): `c = ±u |Ω_a|` with `u` in
+//! [0.02, 0.5], `Ω_b` a random direction whose kinetic energy is `T(a)` times a factor in
+//! [0.5, 2] (not on the level set), the straight segment as the desired path. A "converged"
+//! whose `⟨Ω, ξ⟩ − c`, computed from the state by a plain dot product at 201 times, exceeds
+//! 1e-6 (relative to `|Ω| |ξ|`) is counted as false.
+//!
 //! The corpus is a measurement, not a gate: `cargo test --test lie_corpus --
 //! --ignored --nocapture` prints the table (README has the numbers). The small slice that
 //! runs with `cargo test` asserts only what must hold: no false convergence, every failure
@@ -13,7 +20,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use nalgebra::Vector3;
-use suslov::lie::path::{projected_segment, LevelSet};
+use suslov::lie::path::{projected_segment, LevelSet, Segment};
 use suslov::lie::{self, LieSolveError, Problem};
 use suslov::model::Model;
 use suslov::suslov::problem::{CostWeights, SuslovProblem, TerminalTime, ENERGY_REL_TOL};
@@ -220,6 +227,78 @@ fn agree(a: &Outcome, b: &Outcome) -> bool {
     }
 }
 
+/// A random inhomogeneous Suslov problem (module docs).
+fn inhomogeneous_problem(
+    rng: &mut Rng,
+    d: &Draw,
+) -> Problem<suslov::model::so3_inhomogeneous::So3Inhomogeneous> {
+    type Inh = suslov::model::so3_inhomogeneous::So3Inhomogeneous;
+    let moments = [0; 3].map(|_| rng.uniform(0.5, 5.0));
+    let (a, b) = directions(rng, 3);
+    let size = rng.uniform(0.5, 8.0);
+    let omega_a: Vec<f64> = a.iter().map(|x| x * size).collect();
+    let energy = |v: &[f64]| (0..3).map(|i| moments[i] * v[i] * v[i]).sum::<f64>();
+    let factor = rng.uniform(0.5, 2.0);
+    let scale = (factor * energy(&omega_a) / energy(&b)).sqrt();
+    let omega_b: Vec<f64> = b.iter().map(|x| x * scale).collect();
+    let sign = if rng.next() < 0.5 { -1.0 } else { 1.0 };
+    let c = sign * rng.uniform(0.02, 0.5) * size;
+    let mut user = vec![0.0; Inh::N_USER_PARAM];
+    for (name, v) in [
+        ("I1", moments[0]),
+        ("I2", moments[1]),
+        ("I3", moments[2]),
+        ("alpha", d.alpha),
+        ("beta", d.beta),
+        ("gamma", d.gamma),
+        ("eta", d.eta),
+        ("delta", d.delta),
+        ("c", c),
+    ] {
+        let i = Inh::PARAM_NAMES.iter().position(|n| *n == name).unwrap();
+        user[i] = v;
+    }
+    let desired = Segment::new(omega_a.clone(), omega_b.clone(), 0.0, d.span).unwrap();
+    Problem::new(&user, 0.0, omega_a, omega_b, terminal(d), Arc::new(desired)).unwrap()
+}
+
+/// Whether a converged solution of `problem` keeps `⟨Ω, ξ⟩ = c` (a plain dot product).
+fn keeps_the_level(
+    problem: &Problem<suslov::model::so3_inhomogeneous::So3Inhomogeneous>,
+) -> Outcome {
+    type Inh = suslov::model::so3_inhomogeneous::So3Inhomogeneous;
+    let c = problem.param("c").unwrap();
+    match lie::solve(problem, &SolveOptions::default(), &mut |_| {}) {
+        Ok(sol) => {
+            let v = lie::verify_solution(&sol);
+            let (a, b) = (sol.problem.t0, sol.terminal_time());
+            let worst = (0..=200)
+                .map(|k| {
+                    let y = sol.state(a + (b - a) * k as f64 / 200.0);
+                    let (om, xi) = (&y[Inh::OMEGA], &y[Inh::XI]);
+                    let dot: f64 = om.iter().zip(xi).map(|(o, x)| o * x).sum();
+                    let norm = |v: &[f64]| v.iter().map(|x| x * x).sum::<f64>().sqrt();
+                    (dot - c).abs() / (norm(om) * norm(xi))
+                })
+                .fold(0.0, f64::max);
+            if v.verification.passed() && worst <= 1e-6 {
+                Outcome::Converged {
+                    b: sol.terminal_time(),
+                    cost: v.diagnostics.cost,
+                }
+            } else if v.verification.passed() {
+                Outcome::Unverified(format!("FALSE: |<Omega, xi> - c| = {worst:e}"))
+            } else {
+                Outcome::Unverified(format!("{:?}", v.verification.verdict()))
+            }
+        }
+        Err(LieSolveError::StageFailed { stage, reason, .. }) => {
+            Outcome::Explained(format!("stage {stage}: {reason}"))
+        }
+        Err(e) => Outcome::Explained(e.to_string()),
+    }
+}
+
 /// Solve `count` random so(3) problems in both layers and `count` of se(2) and so(4) in the
 /// generic one; returns the table's rows and the number of false convergences.
 fn run_corpus(count: usize, seed: u64) -> (Vec<String>, usize) {
@@ -288,7 +367,22 @@ fn run_corpus(count: usize, seed: u64) -> (Vec<String>, usize) {
         let o = generic_outcome(&p);
         so4.add(&o, clock.elapsed().as_secs_f64());
     }
-    let false_total = old.false_converged;
+    let mut inh = Tally::default();
+    let mut rng = Rng(seed ^ 0x1a40_0c0f);
+    for k in 0..count {
+        let d = draw(&mut rng);
+        let p = inhomogeneous_problem(&mut rng, &d);
+        let clock = Instant::now();
+        let o = keeps_the_level(&p);
+        inh.add(&o, clock.elapsed().as_secs_f64());
+        if let Outcome::Unverified(m) = &o {
+            if m.starts_with("FALSE") {
+                inh.false_converged += 1;
+            }
+        }
+        eprintln!("so3_inhomogeneous problem {k}: {o:?}");
+    }
+    let false_total = old.false_converged + inh.false_converged;
     let rows = vec![
         "| corpus | problems | converged | stopped, explained | unverified | false \"converged\" | seconds median / 90 % / max |".to_string(),
         "|---|---|---|---|---|---|---|".to_string(),
@@ -296,6 +390,7 @@ fn run_corpus(count: usize, seed: u64) -> (Vec<String>, usize) {
         new.row("so3, generic layer"),
         se2.row("se2, generic layer"),
         so4.row("so4, generic layer"),
+        inh.row("so3_inhomogeneous (c != 0, omega_b off the level set), generic layer"),
     ];
     (rows, false_total)
 }

@@ -6,18 +6,17 @@
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 use suslov::bvp::{self, BvpProblem, Guess};
 use suslov::config::{load_any, Loaded};
-use suslov::lie::path::Path as LiePath;
 use suslov::lie::{self, LieBvp, Problem};
 use suslov::model::so3::So3;
 use suslov::model::so3_inhomogeneous::So3Inhomogeneous;
 use suslov::model::Model;
-use suslov::suslov::desired::DesiredPath;
-use suslov::suslov::paper;
 use suslov::suslov::solve::SolveOptions;
+
+mod paper_lie;
+use paper_lie::paper_problem;
 
 type Inh = So3Inhomogeneous;
 
@@ -196,61 +195,14 @@ fn the_papers_start_conditions_miss_the_constraint_level_when_c_is_nonzero() {
     assert!((level(1.0) - level(0.0)).abs() < 1e-8, "conserved");
 }
 
-/// An so(3) desired path as a path of the generic layer (test adapter).
-struct So3Path(Arc<dyn DesiredPath + Send + Sync>);
-
-impl LiePath for So3Path {
-    fn dim(&self) -> usize {
-        3
-    }
-    fn jet_into(&self, t: f64, out: &mut [f64]) {
-        let j = self.0.jet(t);
-        for (k, v) in [j.value, j.d1, j.d2, j.d3].iter().enumerate() {
-            out[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
-        }
-    }
-    fn value_into(&self, t: f64, out: &mut [f64]) {
-        out.copy_from_slice(self.0.value(t).as_slice());
-    }
-}
-
-/// The paper's problem (η = 1, free terminal time) for model `M`, parameters by name (`c` = 0).
-fn paper_problem<M: Model>() -> Problem<M> {
-    let p = paper::problem(1.0);
-    let by_name: HashMap<&str, f64> = HashMap::from([
-        ("I1", p.inertia.diag()[0]),
-        ("I2", p.inertia.diag()[1]),
-        ("I3", p.inertia.diag()[2]),
-        ("alpha", p.weights.alpha),
-        ("beta", p.weights.beta),
-        ("gamma", p.weights.gamma),
-        ("eta", p.weights.eta),
-        ("delta", p.weights.delta),
-        ("c", 0.0),
-    ]);
-    let user: Vec<f64> = M::PARAM_NAMES[..M::N_USER_PARAM]
-        .iter()
-        .map(|n| by_name[n])
-        .collect();
-    Problem::new(
-        &user,
-        p.t0,
-        p.omega_a.as_slice().to_vec(),
-        p.omega_b.as_slice().to_vec(),
-        p.terminal,
-        Arc::new(So3Path(p.desired.clone())),
-    )
-    .expect("the paper's problem is valid")
-}
-
 /// With `c = 0` the model is the paper's: its problem gives the paper's `b` and `J` (as the so3
 /// model does, to 1e-9), with the paper's boundary conditions (no start multiplier: the start
 /// constraint is redundant at `c = 0`, module docs of src/lie/problem.rs).
 #[test]
 fn with_c_zero_the_model_reproduces_the_paper() {
     let opts = SolveOptions::default();
-    let plain = lie::solve(&paper_problem::<So3>(), &opts, &mut |_| {}).unwrap();
-    let with_mu = lie::solve(&paper_problem::<Inh>(), &opts, &mut |_| {}).unwrap();
+    let plain = lie::solve(&paper_problem::<So3>(1.0), &opts, &mut |_| {}).unwrap();
+    let with_mu = lie::solve(&paper_problem::<Inh>(1.0), &opts, &mut |_| {}).unwrap();
     assert!(with_mu.problem.conserves_energy());
     let (b0, b1) = (plain.terminal_time(), with_mu.terminal_time());
     let cost = |d: &suslov::suslov::diagnostics::Diagnostics| d.cost;

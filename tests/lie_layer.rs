@@ -7,59 +7,19 @@ use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
 
-use suslov::lie::path::Path as LiePath;
 use suslov::lie::{self, Problem};
 use suslov::model::so3::So3;
 use suslov::model::Model;
-use suslov::suslov::desired::DesiredPath;
 use suslov::suslov::paper;
 use suslov::suslov::problem::TerminalTime;
 use suslov::suslov::solve::SolveOptions;
 
-/// An so(3) desired path as a path of the generic layer (test adapter).
-struct So3Path(Arc<dyn DesiredPath + Send + Sync>);
-
-impl LiePath for So3Path {
-    fn dim(&self) -> usize {
-        3
-    }
-    fn jet_into(&self, t: f64, out: &mut [f64]) {
-        let j = self.0.jet(t);
-        for (k, v) in [j.value, j.d1, j.d2, j.d3].iter().enumerate() {
-            out[3 * k..3 * k + 3].copy_from_slice(v.as_slice());
-        }
-    }
-    fn value_into(&self, t: f64, out: &mut [f64]) {
-        out.copy_from_slice(self.0.value(t).as_slice());
-    }
-}
+mod paper_lie;
+use paper_lie::So3Path;
 
 /// The paper's problem (section 5.3) through the generic layer, parameters set by name.
 fn paper_generic(eta: f64) -> Problem<So3> {
-    let p = paper::problem(eta);
-    let by_name: HashMap<&str, f64> = HashMap::from([
-        ("I1", p.inertia.diag()[0]),
-        ("I2", p.inertia.diag()[1]),
-        ("I3", p.inertia.diag()[2]),
-        ("alpha", p.weights.alpha),
-        ("beta", p.weights.beta),
-        ("gamma", p.weights.gamma),
-        ("eta", p.weights.eta),
-        ("delta", p.weights.delta),
-    ]);
-    let user: Vec<f64> = So3::PARAM_NAMES[..So3::N_USER_PARAM]
-        .iter()
-        .map(|n| by_name[n])
-        .collect();
-    Problem::new(
-        &user,
-        p.t0,
-        p.omega_a.as_slice().to_vec(),
-        p.omega_b.as_slice().to_vec(),
-        p.terminal,
-        Arc::new(So3Path(p.desired.clone())),
-    )
-    .expect("the paper's problem is valid")
+    paper_lie::paper_problem::<So3>(eta)
 }
 
 #[test]
