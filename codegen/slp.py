@@ -12,6 +12,63 @@ Nothing here knows about Suslov.
 
 import mpmath
 import sympy as sp
+from sympy.ntheory.multinomial import multinomial_coefficients_iterator
+
+# ---------------------------------------------------------------------------------------------
+# Differentiation
+#
+# `diff(e, s)` is `sp.diff(e, s)` for a symbol s, memoised over subexpressions. sympy's
+# `Derivative.__new__` recomputes `free_symbols` of every subexpression it visits (quadratic in
+# the depth), asks `is_zero` of every intermediate result and walks it once more to canonicalise
+# nested Derivatives; on the big expressions of the optimality system that was most of the
+# generation time. Here the same rules are applied, in the same order and with the same
+# constructor calls (Add: `Add(*[d a])`, Mul: sympy's general Leibniz rule
+# `Mul._eval_derivative_n_times` for n = 1, Pow: `Pow._eval_derivative`), so the result is the
+# very expression sympy builds (tests/test_derive.py compares them); the checks that do not
+# change the result (`is_zero`, the Derivative canonicalisation, which finds none) are skipped.
+# Any other node type goes to sympy's own `diff`.
+
+_FREE = {}  # expr -> its free symbols
+_DIFF = {}  # (expr, symbol) -> derivative
+
+
+def _free(e):
+    """e.free_symbols, memoised over subexpressions (Add, Mul, Pow; sympy's for others)."""
+    r = _FREE.get(e)
+    if r is None:
+        if e.is_Add or e.is_Mul or e.is_Pow:
+            r = set().union(*[_free(a) for a in e.args])
+        else:
+            r = e.free_symbols
+        _FREE[e] = r
+    return r
+
+
+def diff(e, s):
+    """d e / d s for a Symbol s: exactly `sp.diff(e, s)` (see above), memoised."""
+    e = sp.sympify(e)
+    key = (e, s)
+    r = _DIFF.get(key)
+    if r is not None:
+        return r
+    if s not in _free(e):
+        r = sp.S.Zero
+    elif e.is_Add:
+        r = e.func(*[diff(a, s) for a in e.args])
+    elif e.is_Mul:
+        args = e.args
+        terms = [c * sp.Mul(*[diff(a, s) if k else a for k, a in zip(kvals, args)])
+                 for kvals, c in multinomial_coefficients_iterator(len(args), 1)]
+        r = sp.Add(*terms)
+    elif e.is_Pow:
+        dbase, dexp = diff(e.base, s), diff(e.exp, s)
+        r = e * (dexp * sp.log(e.base) + dbase * e.exp / e.base)
+    elif e.is_Symbol:
+        r = sp.S.One  # (s is free in e)
+    else:
+        r = sp.diff(e, s)
+    _DIFF[key] = r
+    return r
 
 
 class Program:
@@ -86,7 +143,7 @@ class Program:
             deps = [s for s in e.free_symbols if s in tangent]
             if not deps:
                 continue
-            partial = {s: sp.diff(e, s) for s in sorted(deps, key=sp.default_sort_key)}
+            partial = {s: diff(e, s) for s in sorted(deps, key=sp.default_sort_key)}
             cols = sorted({j for s in deps for j in tangent[s]})
             tan = {}
             for j in cols:
@@ -104,7 +161,7 @@ class Program:
             out = sp.sympify(out)
             deps = [s for s in out.free_symbols if s in tangent]
             for s in deps:
-                ds = sp.diff(out, s)
+                ds = diff(out, s)
                 for j, t in tangent[s].items():
                     jac[i, j] += ds * t
         return jac

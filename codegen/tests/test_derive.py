@@ -17,6 +17,7 @@ sys.path.insert(0, CODEGEN)
 import derive as D  # noqa: E402
 import model  # noqa: E402
 from emit_rust import RustPrinter  # noqa: E402
+import slp  # noqa: E402
 from slp import Program  # noqa: E402
 
 M = model.load("so3")
@@ -105,6 +106,22 @@ class Printer(unittest.TestCase):
         a = sp.Symbol("a", real=True)
         with self.assertRaises(TypeError):
             RustPrinter({a: "a"})(sp.besselj(0, a))
+
+
+class Differentiation(unittest.TestCase):
+    def test_memoised_diff_is_sympys_diff(self):
+        """slp.diff builds the very expression sp.diff builds (same tree, same argument order),
+        on every assignment of the so3 right-hand side and on the cost, w.r.t. every symbol
+        it contains, and on a few nodes sympy handles itself (functions, symbolic powers)."""
+        prog = Program(M.STATE + list(M.Om_d) + list(M.Om_dDot), M.PARAMS)
+        OPT.rhs_program(prog)
+        a, b = sp.symbols("a b", real=True)
+        exprs = [e for _, e in prog.lets] + [OPT.C, sp.sqrt(a * b + 1) * sp.tanh(a) ** b,
+                                             (a + 2 * b) ** -3 / (1 + a), sp.Integer(3)]
+        for e in exprs:
+            for s in sorted(e.free_symbols | {a}, key=sp.default_sort_key):
+                got, want = slp.diff(e, s), sp.diff(e, s)
+                self.assertEqual(sp.srepr(got), sp.srepr(want), (e, s))
 
 
 class Determinism(unittest.TestCase):
