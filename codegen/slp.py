@@ -167,38 +167,45 @@ class Program:
         return jac
 
     # -- numerics --------------------------------------------------------------------------
-    def evaluator(self, outputs, dps=40):
-        """Compile an mpmath evaluator of `outputs`: call it with a dict {symbol: value}.
-
-        The whole program is printed once as straight-line Python (sympy's MpmathPrinter) and
-        compiled as one function: much faster than a lambdify per assignment for programs of
-        thousands of assignments."""
-        from sympy.printing.pycode import MpmathPrinter
-
-        # order="none": terms in their stored order (sorting them for print dominated the time)
-        pr = MpmathPrinter({"fully_qualified_modules": False, "inline": True, "order": "none"})
+    def source(self, outputs):
+        """The straight-line Python source of `evaluator` (a function `_program(_in)`)."""
+        pr = _printer()
         known = self.inputs + self.constants
         names = {}
+        rule = {}  # symbol -> its Python name as a Symbol
 
         def ident(sym):
             if sym not in names:
                 names[sym] = f"v{len(names)}"
+                rule[sym] = sp.Symbol(names[sym])
             return names[sym]
 
+        rename = _Renamer(rule)
         lines = ["def _program(_in):"]
         for k, sym in enumerate(known):
             lines.append(f"    {ident(sym)} = _in[{k}]")
         for sym, e in self.lets:
-            e = e.xreplace({s: sp.Symbol(ident(s)) for s in e.free_symbols})
-            lines.append(f"    {ident(sym)} = {pr.doprint(e)}")
+            # (every symbol of an assignment is known or assigned before: `let` checks)
+            lines.append(f"    {ident(sym)} = {pr.doprint(rename(e))}")
         outs = []
         for o in outputs:
             o = sp.sympify(o)
-            o = o.xreplace({s: sp.Symbol(ident(s)) for s in o.free_symbols})
-            outs.append(pr.doprint(o))
+            for s in o.free_symbols:
+                ident(s)
+            outs.append(pr.doprint(rename(o)))
         lines.append(f"    return [{', '.join(outs)}]")
+        return "\n".join(lines)
+
+    def evaluator(self, outputs, dps=40):
+        """Compile an mpmath evaluator of `outputs`: call it with a dict {symbol: value}.
+
+        The whole program is printed once as straight-line Python (sympy's MpmathPrinter, its
+        symbols renamed v0, v1, ... in the order inputs, constants, assignments) and compiled as
+        one function: much faster than a lambdify per assignment for programs of thousands of
+        assignments."""
+        known = self.inputs + self.constants
         namespace = {k: getattr(mpmath, k) for k in dir(mpmath) if not k.startswith("_")}
-        exec(compile("\n".join(lines), "<slp.Program>", "exec"), namespace)
+        exec(compile(self.source(outputs), "<slp.Program>", "exec"), namespace)
         f = namespace["_program"]
         needed = set(known)
 
@@ -210,3 +217,71 @@ class Program:
                 return [mpmath.mpf(v) for v in f([mpmath.mpf(values[s]) for s in known])]
 
         return run
+
+
+class _Renamer:
+    """`e.xreplace(rule)` memoised over subexpressions (the assignments of a program share
+    many): the same constructor calls as xreplace (`func(*args)` where a replacement happened
+    below), hence the same expressions."""
+
+    def __init__(self, rule):
+        self.rule = rule
+        self.memo = {}  # expr -> (renamed, changed)
+
+    def __call__(self, e):
+        return self._x(e)[0]
+
+    def _x(self, e):
+        r = self.memo.get(e)
+        if r is None:
+            if e in self.rule:
+                r = (self.rule[e], True)
+            else:
+                args, changed = [], False
+                for a in e.args:
+                    a2, c = self._x(a)
+                    args.append(a2)
+                    changed |= c
+                r = (e.func(*args), True) if changed else (e, False)
+            self.memo[e] = r
+        return r
+
+
+_PRINTER = None
+
+
+def _printer():
+    """The one MpmathPrinter of the evaluators, with its output memoised per node.
+
+    order="none": terms in their stored order (sorting them for print dominated the time).
+    sympy's printers are compositional (a node's text depends on the node and the settings
+    only), so a node's text is cached and reused across assignments and programs. What a node
+    records on the printer while printed (`_not_supported`, `_number_symbols`, which `doprint`
+    turns into extra lines) is cached with it and recorded again on reuse."""
+    global _PRINTER
+    if _PRINTER is None:
+        from sympy.printing.pycode import MpmathPrinter
+
+        class Printer(MpmathPrinter):
+            _memo = {}  # expr -> (text, its _not_supported, its _number_symbols)
+
+            def _print(self, expr, **kwargs):
+                if kwargs or not isinstance(expr, sp.Basic):
+                    return super()._print(expr, **kwargs)
+                hit = self._memo.get(expr)
+                if hit is None:
+                    outer = self._not_supported, self._number_symbols
+                    self._not_supported, self._number_symbols = set(), set()
+                    try:
+                        text = super()._print(expr)
+                        hit = (text, self._not_supported, self._number_symbols)
+                    finally:
+                        self._not_supported, self._number_symbols = outer
+                    self._memo[expr] = hit
+                text, unsupported, numbers = hit
+                self._not_supported |= unsupported
+                self._number_symbols |= numbers
+                return text
+
+        _PRINTER = Printer({"fully_qualified_modules": False, "inline": True, "order": "none"})
+    return _PRINTER
