@@ -166,6 +166,17 @@ class Program:
                     jac[i, j] += ds * t
         return jac
 
+    def needed(self, exprs):
+        """The assigned symbols that `exprs` depend on, directly or through other assignments."""
+        need = set()
+        stack = [s for e in exprs for s in e.free_symbols if s in self._defined]
+        while stack:
+            s = stack.pop()
+            if s not in need:
+                need.add(s)
+                stack.extend(t for t in self._defined[s].free_symbols if t in self._defined)
+        return need
+
     # -- numerics --------------------------------------------------------------------------
     def source(self, outputs):
         """The straight-line Python source of `evaluator` (a function `_program(_in)`)."""
@@ -181,15 +192,21 @@ class Program:
             return names[sym]
 
         rename = _Renamer(rule)
+        outputs = [sp.sympify(o) for o in outputs]
+        # Only the assignments the outputs depend on are printed; every assignment keeps its
+        # name (v<k>, k its position), so the printed ones, and the values, do not depend on
+        # which others are needed.
+        needed = self.needed(outputs)
         lines = ["def _program(_in):"]
         for k, sym in enumerate(known):
             lines.append(f"    {ident(sym)} = _in[{k}]")
         for sym, e in self.lets:
             # (every symbol of an assignment is known or assigned before: `let` checks)
-            lines.append(f"    {ident(sym)} = {pr.doprint(rename(e))}")
+            name = ident(sym)
+            if sym in needed:
+                lines.append(f"    {name} = {pr.doprint(rename(e))}")
         outs = []
         for o in outputs:
-            o = sp.sympify(o)
             for s in o.free_symbols:
                 ident(s)
             outs.append(pr.doprint(rename(o)))
@@ -264,6 +281,22 @@ def _printer():
 
         class Printer(MpmathPrinter):
             _memo = {}  # expr -> (text, its _not_supported, its _number_symbols)
+            _no_re = {}  # expr -> whether it contains no `re` node
+
+            def _handle_UnevaluatedExpr(self, expr):
+                # sympy's replaces every re(...) node, a walk over the whole expression on
+                # every doprint; a memoised check returns the expression as it is without one
+                if self._without_re(expr):
+                    return expr
+                return super()._handle_UnevaluatedExpr(expr)
+
+            def _without_re(self, e):
+                r = self._no_re.get(e)
+                if r is None:
+                    r = not isinstance(e, sp.re) and all(
+                        self._without_re(a) for a in e.args if isinstance(a, sp.Basic))
+                    self._no_re[e] = r
+                return r
 
             def _print(self, expr, **kwargs):
                 if kwargs or not isinstance(expr, sp.Basic):
