@@ -579,6 +579,14 @@ def generate_model(name, out, h):
     return name
 
 
+def model_size(name):
+    """A rough measure of a model's generation time, to schedule the largest first: the
+    dimension of its algebra, then its number of constants (a non-diagonal inertia adds the
+    derived entries of I^-1 and larger expressions)."""
+    M = MODEL.load(name)
+    return (M.n, len(M.PARAMS))
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--out", required=True, help="output directory")
@@ -590,11 +598,13 @@ def main():
     hashes = {n: source_hash(n) for n in names}
     todo = [n for n in names if not cached(n, args.out, hashes[n])]
     if len(todo) > 1:
-        # one process per model (the machine has 2 cores); results are files, so the
-        # output does not depend on the order in which the models finish
+        # One task per model, the largest first (longest processing time first: so4 alone takes
+        # about as long as the others together, so it must not start last); results are files,
+        # so the output does not depend on the order in which the models finish.
         import multiprocessing
+        todo.sort(key=model_size, reverse=True)
         with multiprocessing.get_context("fork").Pool(min(len(todo), os.cpu_count() or 1)) as pool:
-            pool.starmap(generate_model, [(n, args.out, hashes[n]) for n in todo])
+            pool.starmap(generate_model, [(n, args.out, hashes[n]) for n in todo], chunksize=1)
     elif todo:
         generate_model(todo[0], args.out, hashes[todo[0]])
     write(args.out, "models.rs", index_text(names, h, args.out))
