@@ -169,12 +169,12 @@ class Program:
     def needed(self, exprs):
         """The assigned symbols that `exprs` depend on, directly or through other assignments."""
         need = set()
-        stack = [s for e in exprs for s in e.free_symbols if s in self._defined]
+        stack = [s for e in exprs for s in _free(e) if s in self._defined]
         while stack:
             s = stack.pop()
             if s not in need:
                 need.add(s)
-                stack.extend(t for t in self._defined[s].free_symbols if t in self._defined)
+                stack.extend(t for t in _free(self._defined[s]) if t in self._defined)
         return need
 
     # -- numerics --------------------------------------------------------------------------
