@@ -83,6 +83,7 @@ class Program:
         if len(known) != len(self.inputs) + len(self.constants):
             raise ValueError("inputs and constants must be distinct symbols")
         self._known = known
+        self._names = self._rename = None  # see _naming
 
     # -- building --------------------------------------------------------------------------
     def let(self, target, expr):
@@ -178,38 +179,44 @@ class Program:
         return need
 
     # -- numerics --------------------------------------------------------------------------
+    def _naming(self):
+        """(names, renamer): `v<k>` for the k-th of the inputs, constants and assignments, and
+        the memoised renaming to them. Kept with the program and extended as assignments are
+        appended (a name never changes), so the evaluators of one program share the work."""
+        if self._names is None:
+            self._names, self._rename = {}, _Renamer({})
+        names, rule = self._names, self._rename.rule
+        order = self.inputs + self.constants + [s for s, _ in self.lets]
+        for sym in order[len(names):]:
+            names[sym] = f"v{len(names)}"
+            rule[sym] = sp.Symbol(names[sym])
+        return names, self._rename
+
     def source(self, outputs):
         """The straight-line Python source of `evaluator` (a function `_program(_in)`)."""
         pr = _printer()
         known = self.inputs + self.constants
-        names = {}
-        rule = {}  # symbol -> its Python name as a Symbol
-
-        def ident(sym):
-            if sym not in names:
-                names[sym] = f"v{len(names)}"
-                rule[sym] = sp.Symbol(names[sym])
-            return names[sym]
-
-        rename = _Renamer(rule)
+        names, rename = self._naming()
         outputs = [sp.sympify(o) for o in outputs]
+        extra = [s for o in outputs for s in o.free_symbols if s not in names]
+        if extra:  # symbols outside the program (never in practice): named after the others
+            names, rename = dict(names), _Renamer(dict(rename.rule))
+            for s in extra:
+                if s not in names:
+                    names[s] = f"v{len(names)}"
+                    rename.rule[s] = sp.Symbol(names[s])
         # Only the assignments the outputs depend on are printed; every assignment keeps its
         # name (v<k>, k its position), so the printed ones, and the values, do not depend on
         # which others are needed.
         needed = self.needed(outputs)
         lines = ["def _program(_in):"]
         for k, sym in enumerate(known):
-            lines.append(f"    {ident(sym)} = _in[{k}]")
+            lines.append(f"    {names[sym]} = _in[{k}]")
         for sym, e in self.lets:
             # (every symbol of an assignment is known or assigned before: `let` checks)
-            name = ident(sym)
             if sym in needed:
-                lines.append(f"    {name} = {pr.doprint(rename(e))}")
-        outs = []
-        for o in outputs:
-            for s in o.free_symbols:
-                ident(s)
-            outs.append(pr.doprint(rename(o)))
+                lines.append(f"    {names[sym]} = {pr.doprint(rename(e))}")
+        outs = [pr.doprint(rename(o)) for o in outputs]
         lines.append(f"    return [{', '.join(outs)}]")
         return "\n".join(lines)
 
