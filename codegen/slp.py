@@ -104,7 +104,7 @@ class Program:
         if sym in self._defined or sym in self._known:
             raise ValueError(f"{sym} assigned twice")
         expr = sp.sympify(expr)
-        unknown = expr.free_symbols - self._known - set(self._defined)
+        unknown = [s for s in _free(expr) if s not in self._known and s not in self._defined]
         if unknown:
             raise ValueError(f"{sym} uses undefined symbols {sorted(map(str, unknown))}")
         self.lets.append((sym, expr))
@@ -141,7 +141,7 @@ class Program:
         tangent = {w: {j: sp.Integer(1)} for j, w in enumerate(wrt)}
         base = list(self.lets)
         for sym, e in base:
-            deps = [s for s in e.free_symbols if s in tangent]
+            deps = [s for s in _free(e) if s in tangent]
             if not deps:
                 continue
             partial = {s: diff(e, s) for s in sorted(deps, key=sp.default_sort_key)}
