@@ -124,6 +124,30 @@ class Differentiation(unittest.TestCase):
                 self.assertEqual(sp.srepr(got), sp.srepr(want), (e, s))
 
 
+class Evaluator(unittest.TestCase):
+    def test_memoised_printer_prints_as_sympys(self):
+        """The evaluators' printer (memoised per node, shared by every program) prints what a
+        fresh MpmathPrinter prints, also for a node met again inside other expressions."""
+        from sympy.printing.pycode import MpmathPrinter
+        settings = {"fully_qualified_modules": False, "inline": True, "order": "none"}
+        a, b = sp.symbols("a b", real=True)
+        shared = (a + 2 * b) ** -3 / (1 + a)
+        exprs = [shared, a * (b + 1) / 3 + shared, sp.sqrt(a * b + 1) * sp.Float("0.1", 40),
+                 sp.pi * a - shared ** 2, 1 / sp.sqrt(a), sp.Rational(-5, 7) * b]
+        for e in exprs + exprs:
+            self.assertEqual(slp._printer().doprint(e), MpmathPrinter(settings).doprint(e))
+
+    def test_only_needed_assignments_are_printed_under_their_own_names(self):
+        x, y = sp.symbols("x y", real=True)
+        prog = Program([x, y])
+        u = prog.let("u", x * y)
+        w = prog.let("w", x + y)
+        src = prog.source([w ** 2])
+        self.assertNotIn("v2 =", src)  # u (v2) is not needed
+        self.assertIn("v3 = v0 + v1", src)  # w keeps the name of its position
+        self.assertEqual(prog.evaluator([w ** 2, u])({x: 2, y: 3}), [25, 6])
+
+
 class Determinism(unittest.TestCase):
     def test_output_is_byte_identical_across_hash_seeds(self):
         outs = []
