@@ -605,11 +605,14 @@ def main():
     todo = [n for n in names if not cached(n, args.out, hashes[n])]
     if len(todo) > 1:
         # One task per model, the largest first (longest processing time first: so4 alone takes
-        # about as long as the others together, so it must not start last); results are files,
-        # so the output does not depend on the order in which the models finish.
+        # about as long as the others together, so it must not start last), each in a fresh
+        # process forked from this one (maxtasksperchild=1: no caches or memory carried over
+        # from the previous model, as when a model is generated alone); results are files, so
+        # the output does not depend on the order in which the models finish.
         import multiprocessing
         todo.sort(key=model_size, reverse=True)
-        with multiprocessing.get_context("fork").Pool(min(len(todo), os.cpu_count() or 1)) as pool:
+        ctx = multiprocessing.get_context("fork")
+        with ctx.Pool(min(len(todo), os.cpu_count() or 1), maxtasksperchild=1) as pool:
             pool.starmap(generate_model, [(n, args.out, hashes[n]) for n in todo], chunksize=1)
     elif todo:
         generate_model(todo[0], args.out, hashes[todo[0]])
