@@ -7,6 +7,10 @@ them into one enormous expression. Jacobians are then taken in forward mode *thr
 program (chain rule over the assignments), so every expression stays small, generation is fast
 and the generated code keeps the structure of the derivation.
 
+Also here, for speed without changing any result: `diff`, sympy's derivative memoised over
+subexpressions (the derivation uses it everywhere), and the mpmath evaluators of the test
+vectors, printed through a per-node memo.
+
 Nothing here knows about Suslov.
 """
 
