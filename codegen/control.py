@@ -31,7 +31,7 @@ import mpmath
 import sympy as sp
 
 import derive as D
-from slp import Program
+from slp import Program, diff
 
 
 def lie_bracket(a, b, x):
@@ -69,7 +69,7 @@ class AffineSystem:
         self.suslov = s
         omdot = s.omdot_of_lam.subs(s.lam_symbol, s.lam)
         xdot = sp.Matrix(list(omdot) + U)  # x_dot(x, u) with u = xi_dot
-        G = xdot.jacobian(U)  # 2n x n, columns g_i
+        G = D.jacobian(xdot, U)  # 2n x n, columns g_i
         _check(not (set().union(*[e.free_symbols for e in G]) & set(U)),
                "d x_dot / d u depends on u (not control-affine)")
         self.f = xdot.subs({v: 0 for v in U})
@@ -98,7 +98,7 @@ class AffineSystem:
         prog = Program(self.X, M.PARAMS)
         om_u = {v: 0 for v in self.U}
         lam0 = prog.let("lam", self.suslov.lam.subs(om_u))  # lambda at u = 0
-        dlam = prog.let("dlam", sp.Matrix([sp.diff(self.suslov.lam, v) for v in self.U]))
+        dlam = prog.let("dlam", sp.Matrix([diff(self.suslov.lam, v) for v in self.U]))
         # Om_dot = I^-1 (ad*_Om I Om + lambda xi) is affine in lambda, lambda affine in u.
         om = self.suslov.omdot_of_lam
         f_om = prog.let("fom", om.subs(self.suslov.lam_symbol, lam0))

@@ -32,12 +32,17 @@ import random
 import mpmath
 import sympy as sp
 
-from slp import Program
+from slp import Program, diff
 
 
 def grad(expr, wrt):
     """Column gradient of a scalar w.r.t. a vector of symbols."""
-    return sp.Matrix([sp.diff(expr, w) for w in wrt])
+    return sp.Matrix([diff(expr, w) for w in wrt])
+
+
+def jacobian(vec, wrt):
+    """`vec.jacobian(wrt)` (the same entries) with the memoised `slp.diff`."""
+    return sp.Matrix(len(vec), len(wrt), lambda i, j: diff(vec[i], wrt[j]))
 
 
 def total_derivative(M, expr):
@@ -48,7 +53,7 @@ def total_derivative(M, expr):
     out = sp.Integer(0)
     for s in sorted(expr.free_symbols, key=sp.default_sort_key):
         if s in M.JET:
-            out += sp.diff(expr, s) * M.JET[s]
+            out += diff(expr, s) * M.JET[s]
         elif s not in M.PARAMS:
             raise ValueError(f"no time derivative known for {s}")
     return out
@@ -176,7 +181,7 @@ class Optimality:
         z = [list(M.OmDDot), list(M.xiDDot), list(M.kappaDot)]
         eqs = [self.dq, self.el_om, self.el_xi]
         flat = [v for zz in z for v in zz]
-        blocks = [[e.jacobian(zz) for zz in z] for e in eqs]
+        blocks = [[jacobian(e, zz) for zz in z] for e in eqs]
         for row in blocks:
             for blk in row:
                 for entry in blk:

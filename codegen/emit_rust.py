@@ -19,12 +19,19 @@ ADD, MUL, NEG, ATOM = 1, 2, 3, 4
 class RustPrinter:
     def __init__(self, names):
         self.names = names  # Symbol -> Rust identifier
+        self._memo = {}  # expr -> _p(expr): a node's text depends on the node and names only
 
     def __call__(self, e):
         return self._p(sp.sympify(e))[0]
 
     # Each _p returns (text, precedence of its outermost operator).
     def _p(self, e):
+        r = self._memo.get(e)
+        if r is None:
+            r = self._memo[e] = self._print(e)
+        return r
+
+    def _print(self, e):
         if e.is_Symbol:
             if e not in self.names:
                 raise KeyError(f"no Rust name for symbol {e}")
@@ -179,16 +186,9 @@ def rust_ident(sym):
 
 
 def _needed_lets(program, exprs):
-    defined = {s: e for s, e in program.lets}
-    order = {s: i for i, (s, _) in enumerate(program.lets)}
-    need, stack = set(), [s for e in exprs for s in sp.sympify(e).free_symbols if s in defined]
-    while stack:
-        s = stack.pop()
-        if s in need:
-            continue
-        need.add(s)
-        stack.extend(t for t in defined[s].free_symbols if t in defined)
-    return [(s, defined[s]) for s in sorted(need, key=order.get)]
+    """The assignments `exprs` depend on, in program order."""
+    need = program.needed([sp.sympify(e) for e in exprs])
+    return [(s, e) for s, e in program.lets if s in need]
 
 
 def flat_outputs(fn):

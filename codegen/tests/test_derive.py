@@ -17,6 +17,7 @@ sys.path.insert(0, CODEGEN)
 import derive as D  # noqa: E402
 import model  # noqa: E402
 from emit_rust import RustPrinter  # noqa: E402
+import slp  # noqa: E402
 from slp import Program  # noqa: E402
 
 M = model.load("so3")
@@ -105,6 +106,46 @@ class Printer(unittest.TestCase):
         a = sp.Symbol("a", real=True)
         with self.assertRaises(TypeError):
             RustPrinter({a: "a"})(sp.besselj(0, a))
+
+
+class Differentiation(unittest.TestCase):
+    def test_memoised_diff_is_sympys_diff(self):
+        """slp.diff builds the very expression sp.diff builds (same tree, same argument order),
+        on every assignment of the so3 right-hand side and on the cost, w.r.t. every symbol
+        it contains, and on a few nodes sympy handles itself (functions, symbolic powers)."""
+        prog = Program(M.STATE + list(M.Om_d) + list(M.Om_dDot), M.PARAMS)
+        OPT.rhs_program(prog)
+        a, b = sp.symbols("a b", real=True)
+        exprs = [e for _, e in prog.lets] + [OPT.C, sp.sqrt(a * b + 1) * sp.tanh(a) ** b,
+                                             (a + 2 * b) ** -3 / (1 + a), sp.Integer(3)]
+        for e in exprs:
+            for s in sorted(e.free_symbols | {a}, key=sp.default_sort_key):
+                got, want = slp.diff(e, s), sp.diff(e, s)
+                self.assertEqual(sp.srepr(got), sp.srepr(want), (e, s))
+
+
+class Evaluator(unittest.TestCase):
+    def test_memoised_printer_prints_as_sympys(self):
+        """The evaluators' printer (memoised per node, shared by every program) prints what a
+        fresh MpmathPrinter prints, also for a node met again inside other expressions."""
+        from sympy.printing.pycode import MpmathPrinter
+        settings = {"fully_qualified_modules": False, "inline": True, "order": "none"}
+        a, b = sp.symbols("a b", real=True)
+        shared = (a + 2 * b) ** -3 / (1 + a)
+        exprs = [shared, a * (b + 1) / 3 + shared, sp.sqrt(a * b + 1) * sp.Float("0.1", 40),
+                 sp.pi * a - shared ** 2, 1 / sp.sqrt(a), sp.Rational(-5, 7) * b]
+        for e in exprs + exprs:
+            self.assertEqual(slp._printer().doprint(e), MpmathPrinter(settings).doprint(e))
+
+    def test_only_needed_assignments_are_printed_under_their_own_names(self):
+        x, y = sp.symbols("x y", real=True)
+        prog = Program([x, y])
+        u = prog.let("u", x * y)
+        w = prog.let("w", x + y)
+        src = prog.source([w ** 2])
+        self.assertNotIn("v2 =", src)  # u (v2) is not needed
+        self.assertIn("v3 = v0 + v1", src)  # w keeps the name of its position
+        self.assertEqual(prog.evaluator([w ** 2, u])({x: 2, y: 3}), [25, 6])
 
 
 class Determinism(unittest.TestCase):
