@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use suslov::bvp::{self, BvpProblem, Guess};
 use suslov::config::{load_any, Loaded};
-use suslov::lie::{self, LieBvp};
+use suslov::lie::{self, LieBvp, Problem};
 use suslov::model::so3::So3;
 use suslov::model::so3_inhomogeneous::So3Inhomogeneous;
 use suslov::model::Model;
@@ -445,4 +445,57 @@ fn the_example_with_a_free_terminal_time_solves_verified() {
     assert!(checked.verification.passed(), "{:?}", checked.verification);
     assert!(checked.diagnostics.max_abs_constraint < 1e-8);
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// `c → −c` is a symmetry of the problem: `(ξ, ξ̇, μ) → −(ξ, ξ̇, μ)` with the same `Ω` (λ is odd
+/// in ξ, λξ even, the cost even in ξ). The example with `c = −0.25` (which the homotopy reaches
+/// by mirroring the motion after stage A, whose level is positive) gives the same cost and
+/// `Ω(t)`, and the opposite `ξ(t)` and `μ`.
+#[test]
+fn the_mirrored_constraint_value_gives_the_mirrored_solution() {
+    let loaded = load_example();
+    let mut user = loaded.problem.user_params().to_vec();
+    let c_index = Inh::CONSTRAINT_PARAMS[0].index;
+    user[c_index] = -user[c_index];
+    let p = &loaded.problem;
+    let mirrored = Problem::<Inh>::new(
+        &user,
+        p.t0,
+        p.omega_a.clone(),
+        p.omega_b.clone(),
+        p.terminal,
+        p.desired.clone(),
+    )
+    .unwrap();
+    let plus = lie::solve(&loaded.problem, &loaded.options, &mut |_| {}).unwrap();
+    let minus = lie::solve(&mirrored, &loaded.options, &mut |_| {}).unwrap();
+    let names: Vec<&str> = minus.stages.iter().map(|s| s.name).collect();
+    assert!(names.contains(&"mirror xi -> -xi"), "{names:?}");
+    let (j_plus, j_minus) = (
+        lie::verify::diagnose(&plus).cost,
+        lie::verify::diagnose(&minus).cost,
+    );
+    assert!(
+        (j_plus - j_minus).abs() < 1e-9 * j_plus,
+        "J {j_plus} vs {j_minus}"
+    );
+    let (mu_plus, mu_minus) = (
+        plus.start_multiplier().unwrap(),
+        minus.start_multiplier().unwrap(),
+    );
+    assert!(
+        (mu_plus + mu_minus).abs() < 1e-7 * mu_plus.abs(),
+        "mu {mu_plus} vs {mu_minus}"
+    );
+    for k in 0..=40 {
+        let t = 4.0 * k as f64 / 40.0;
+        let (a, b) = (plus.state(t), minus.state(t));
+        for i in Inh::OMEGA {
+            assert!((a[i] - b[i]).abs() < 1e-7, "Omega at t = {t}");
+        }
+        for i in Inh::XI.start..Inh::XIDOT.end {
+            assert!((a[i] + b[i]).abs() < 1e-7, "xi, xi' at t = {t}");
+        }
+    }
+    assert!(lie::verify_solution(&minus).verification.passed());
 }
