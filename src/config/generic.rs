@@ -46,9 +46,9 @@ use crate::lie::path::{
     projected_segment, Constant, LevelSet, Path as LiePath, Projected, Sampled, Segment,
 };
 use crate::lie::problem::Problem;
+use crate::lie::problem::{TerminalTime, ENERGY_REL_TOL};
+use crate::lie::solve::SolveOptions;
 use crate::model::{HomotopyRole, Model};
-use crate::suslov::problem::{TerminalTime, ENERGY_REL_TOL};
-use crate::suslov::solve::SolveOptions;
 
 use super::{
     clip, decode, read_bounded, ConfigError, DefaultName, ProblemFile, ReadFailure, SolverSection,

@@ -12,15 +12,60 @@ use std::marker::PhantomData;
 
 use crate::model::Model;
 use crate::ocp::{
-    self, Boundary, CertifyError, Horizon, LinearCondition, NewtonOptions, OcpProblem,
-    SecondOrderOptions, Transcription,
+    self, Boundary, Certificate, CertifyError, Horizon, LinearCondition, NewtonOptions, OcpProblem,
+    SecondOrderOptions, Transcription, Verdict,
 };
-use crate::suslov::certify::SuslovCertificate;
-use crate::suslov::problem::TerminalTime;
 
 use super::path::Path;
-use super::problem::{with_buffer, LieBvp};
+use super::problem::{with_buffer, LieBvp, TerminalTime};
 use super::solve::LieSolution;
+
+/// The certificate of one solution, with the comparison of the multipliers and κ.
+#[derive(Debug, Clone)]
+pub struct SuslovCertificate {
+    /// The generic certificate (KKT residuals, Newton, the second-order test).
+    pub certificate: Certificate,
+    /// Intervals of the mesh (the solution's own).
+    pub intervals: usize,
+    /// `max_p |λ_p/ω_p − π(t_p)| / max_p |π(t_p)|`: the discrete multipliers against the
+    /// classical costates computed from the indirect solution's κ.
+    pub costate_mismatch: f64,
+    /// Whether the terminal time was an unknown.
+    pub free_time: bool,
+    /// `b` of the certified point.
+    pub terminal_time: f64,
+    /// The cost of the certified point (discrete, Lobatto quadrature).
+    pub cost: f64,
+    /// `‖v* − v₀‖∞ / max(1, ‖v₀‖∞)`: how far the certified point is from the indirect
+    /// solution, relative to its size.
+    pub relative_displacement: f64,
+    /// Where the weakest (or most negative) direction of the second variation lives in time.
+    pub weakest: Option<ocp::transcription::DirectionProfile>,
+}
+
+/// Above this relative displacement the certified KKT point is not the computed solution
+/// to plotting accuracy, and [`SuslovCertificate::warning`] says so.
+pub const DISPLACEMENT_WARNING: f64 = 1e-3;
+
+impl SuslovCertificate {
+    /// The verdict.
+    pub fn verdict(&self) -> Verdict {
+        self.certificate.second_order.verdict
+    }
+
+    /// A warning when the verdict is about a point visibly different from the computed
+    /// solution (the mesh is too coarse for the discretized problem to represent it).
+    pub fn warning(&self) -> Option<String> {
+        (self.relative_displacement > DISPLACEMENT_WARNING).then(|| {
+            format!(
+                "the certified KKT point of the discretized problem is {:.1e} (relative) away from \
+                 the computed solution: the mesh ({} intervals) is too coarse for the verdict to \
+                 describe it; solve with a smaller tolerance",
+                self.relative_displacement, self.intervals
+            )
+        })
+    }
+}
 
 /// The direct (classical state/control) form of a model's problem.
 pub struct LieOcp<'a, M: Model> {

@@ -8,15 +8,21 @@
 //! - [`problem`]: a problem as data ([`Problem`]) and its BVP ([`LieBvp`]);
 //! - [`solve`](mod@solve): the analytic singular start and the staged homotopy, its stages read from the
 //!   weights' [`HomotopyRole`](crate::model::HomotopyRole)s;
-//! - [`verify`]: the a-posteriori checks, with the so(3) layer's thresholds and verdict;
+//! - [`checks`]: what "converged" means for every problem layer: the [`Diagnostics`](checks::Diagnostics)
+//!   measured on a solution and the [`Verification`](checks::Verification) thresholds and verdict;
+//! - [`verify`]: the a-posteriori checks of a [`LieSolution`];
 //! - [`certify`](mod@certify): the second-order certificate (local minimum or not);
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
-//! The so(3) problem layer ([`crate::suslov`]) predates this one and still serves the paper
-//! (its figures, certificate and controllability report); `tests/lie_layer.rs` checks that
-//! this layer reproduces its results on the paper's problems.
+//! This layer knows nothing of the so(3) problem layer ([`crate::suslov`]), which predates it
+//! and still serves the paper (its figures, certificate and controllability report): the
+//! types both share (options, stage records, events, terminal time, diagnostics,
+//! verification, certificate) live here, and the so(3) layer re-exports them.
+//! `tests/lie_layer.rs` checks that this layer reproduces the so(3) layer's results on the
+//! paper's problems.
 
 pub mod certify;
+pub mod checks;
 pub mod controllability;
 pub mod path;
 pub mod problem;

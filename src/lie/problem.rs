@@ -49,9 +49,33 @@ use std::sync::Arc;
 
 use crate::bvp::BvpProblem;
 use crate::model::{fill_derived, DerivedError, Model, ParamMeta};
-use crate::suslov::problem::{TerminalTime, ENERGY_REL_TOL};
 
 use super::path::{LevelSet, Path, PathError};
+
+/// Fixed or free terminal time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum TerminalTime {
+    /// `b` is given.
+    Fixed(f64),
+    /// `b` is unknown; the value is where continuation starts (`b_p`, Properties 1–3).
+    Free {
+        /// Start value of `b`.
+        guess: f64,
+    },
+}
+
+impl TerminalTime {
+    /// The given `b`, or the starting guess.
+    pub fn initial(&self) -> f64 {
+        match *self {
+            TerminalTime::Fixed(b) | TerminalTime::Free { guess: b } => b,
+        }
+    }
+}
+
+/// A Suslov optimal control problem (paper eq. `dyn_opt_problem_spec` with the cost above).
+/// Relative energy mismatch allowed between `Ω_a` and `Ω_b` (their kinetic energies).
+pub const ENERGY_REL_TOL: f64 = 1e-9;
 
 /// What is wrong with a [`Problem`]; each names the field and the fix.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

@@ -44,16 +44,163 @@
 use std::sync::Arc;
 
 use crate::bvp::{self, Guess, Solution};
-use crate::continuation;
+use crate::continuation::{self, StepRecord};
 use crate::model::{HomotopyRole, Model};
-use crate::suslov::problem::TerminalTime;
-use crate::suslov::solve::{
-    Event, SolveOptions, StageOutcome, StageReport, StartChoice, StartStrategy,
-    ADMISSIBLE_ENERGY_TOL,
-};
 
 use super::path::{projected_segment, Path, Projected};
-use super::problem::{with_buffer, LieBvp, Problem, ProblemError, SPAN};
+use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
+
+/// `Ω_d` counts as admissible (paper's third case) when its relative energy deviation from
+/// `E` stays below this and Properties 1 and 3 hold.
+pub const ADMISSIBLE_ENERGY_TOL: f64 = 1e-4;
+
+/// How the analytic start is chosen (paper section 5.2).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum StartStrategy {
+    /// Decide from `γ` and the admissibility of `Ω_d` (the module docs).
+    #[default]
+    Auto,
+    /// `Ω_p = [Ω_d]_∥` and the full `γ` from the start (the paper's third case); needs `γ > 0`.
+    Desired,
+    /// `Ω_p = [Ω_d]_∥`, then `γ` from 0 to `γ` (the paper's second case); needs `γ > 0`.
+    DesiredGammaFromZero,
+    /// `Ω_p` = the projected segment `Ω_a → Ω_b`: `γ` from 0 to `γ` if `γ > 0` (second
+    /// case), from 1 to 0 tracking `Ω_p` if `γ = 0` (first case).
+    Segment,
+}
+
+/// Options of [`solve`].
+#[derive(Debug, Clone)]
+pub struct SolveOptions {
+    /// Final BVP tolerance (paper: 1e-8).
+    pub tol: f64,
+    /// BVP tolerance during continuation. The path only has to be followed, not resolved:
+    /// the final polish solve sets the accuracy. (Paper cases: 1e-4 instead of 1e-6 gives the
+    /// same b to 7 digits in about half the time.)
+    pub continuation_tol: f64,
+    /// `β_m`; default `1e-2 · min(α, β, γ or 1)`.
+    pub beta_m: Option<f64>,
+    /// Intervals of the initial uniform mesh.
+    pub initial_intervals: usize,
+    /// Node cap of every BVP solve.
+    pub max_nodes: usize,
+    /// Override of the start case (default: [`StartStrategy::Auto`]).
+    pub start: StartStrategy,
+}
+
+impl Default for SolveOptions {
+    fn default() -> Self {
+        Self {
+            tol: 1e-8,
+            continuation_tol: 1e-4,
+            beta_m: None,
+            initial_intervals: 100,
+            max_nodes: 20_000,
+            start: StartStrategy::Auto,
+        }
+    }
+}
+
+/// Which path the analytic start used, and why.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StartChoice {
+    /// "projected desired path" or "projected segment".
+    pub omega_p: &'static str,
+    /// Paper case: 1 (`γ = 0`), 2 (`Ω_d` not admissible), 3 (`Ω_d` admissible).
+    pub case: u8,
+    /// `b_p`.
+    pub b_p: f64,
+    /// `β_m`.
+    pub beta_m: f64,
+    /// Max relative energy deviation of `Ω_d` from `E` on `[a, b_p]`.
+    pub desired_energy_deviation: f64,
+}
+
+/// How a stage of the homotopy ended.
+#[derive(Debug, Clone, PartialEq)]
+pub enum StageOutcome {
+    /// The stage reached its target (for a single solve: the BVP solver converged).
+    Completed,
+    /// The stage stopped before its target; [`solve`] returns [`LieSolveError::StageFailed`]
+    /// (or [`LieSolveError::Start`] for the start) with the same reason.
+    Stopped {
+        /// Why (the continuation's or the BVP solver's status).
+        reason: String,
+    },
+}
+
+impl StageOutcome {
+    /// Whether the stage reached its target.
+    pub fn is_completed(&self) -> bool {
+        matches!(self, Self::Completed)
+    }
+}
+
+impl std::fmt::Display for StageOutcome {
+    /// `completed`, or `stopped: <reason>`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Completed => f.write_str("completed"),
+            Self::Stopped { reason } => write!(f, "stopped: {reason}"),
+        }
+    }
+}
+
+/// One stage of the homotopy.
+#[derive(Debug, Clone, PartialEq)]
+pub struct StageReport {
+    /// "start", "gamma", "beta", "eta", "delta" or "polish".
+    pub name: &'static str,
+    /// Start value of the continued parameter.
+    pub from: f64,
+    /// Target value.
+    pub to: f64,
+    /// Accepted continuation steps.
+    pub steps: usize,
+    /// Rejected attempts that were recovered from.
+    pub failures_recovered: usize,
+    /// Newton iterations of the stage.
+    pub newton_iterations: usize,
+    /// Mesh nodes at the end of the stage.
+    pub nodes: usize,
+    /// Wall time of the stage, seconds.
+    pub seconds: f64,
+    /// Whether the stage reached its target.
+    pub outcome: StageOutcome,
+}
+
+/// Events reported while solving.
+#[derive(Debug, Clone)]
+pub enum Event<'a> {
+    /// A stage starts.
+    StageStarted {
+        /// Stage name.
+        name: &'static str,
+        /// From.
+        from: f64,
+        /// To.
+        to: f64,
+    },
+    /// A continuation step was attempted (its parameter is the stage's homotopy variable).
+    Step {
+        /// Stage name.
+        stage: &'static str,
+        /// The attempt.
+        record: &'a StepRecord,
+    },
+    /// A stage ended: completed, or stopped (see [`StageReport::outcome`]).
+    StageFinished(&'a StageReport),
+    /// A Newton step or mesh pass inside a BVP solve of a stage (at parameter `lambda` of
+    /// the stage's homotopy, 0 for single solves).
+    Bvp {
+        /// Stage name.
+        stage: &'static str,
+        /// Homotopy parameter of the solve.
+        lambda: f64,
+        /// The solver's report.
+        progress: &'a bvp::Progress,
+    },
+}
 
 /// A solved problem of model `M`.
 #[derive(Clone)]
@@ -278,7 +425,7 @@ fn choose_start<M: Model>(
             &problem.omega_b,
             a,
             b_p,
-            crate::suslov::problem::ENERGY_REL_TOL,
+            super::problem::ENERGY_REL_TOL,
         )
         .map_err(|e| LieSolveError::Start(e.to_string()))?;
         let r = check_properties(problem, &seg, (a, b_p), samples);

@@ -1,26 +1,26 @@
-//! Verify, don't trust: the a-posteriori checks of a [`LieSolution`] of any model, with the
-//! quantities, thresholds and verdict of the so(3) layer ([`crate::suslov::verify`]: the same
-//! [`Diagnostics`] and [`Verification`], calibrated there).
+//! Verify, don't trust: the a-posteriori checks of a [`LieSolution`] of any model: the
+//! [`Diagnostics`] and the [`Verification`] of [`super::checks`] (thresholds calibrated on the
+//! paper's cases and the examples, shared with the so(3) layer).
 //!
 //! Computed from the solution's dense output on the fine grid (every mesh interval subdivided
-//! [`FINE_PER_INTERVAL`] times), independently of the solver's error estimate: the cost by
-//! 5-point Gauss–Legendre per interval, the constraint `max |φ|`, `φ = ⟨Ω, ξ⟩ − γ(ξ)` (the
-//! generated `constraint_residual`), the kinetic energy `T = ½⟨Ω, 𝕀Ω⟩` (𝕀 the model's full
-//! inertia matrix) against its balance `T(a) + ∫ λ⟨Ω, ξ⟩ dt` (λ from the generated
-//! `suslov_omega_dot`; the balance is `T(a)` itself when the constraint value vanishes, and the
-//! integral is then left out so that the check stays the strict one), `|Ω(b) − Ω_b|`, the
-//! residual of the
-//! interpolant, the boundary residuals, and the re-integration of the model's Suslov
-//! equations (the generated `suslov_omega_dot`) as an initial value problem (Verner 9(8),
-//! rtol = atol = 1e-12) driven by the computed `ξ(t), ξ̇(t)`.
+//! [`FINE_PER_INTERVAL`] times), independently of the solver's error estimate:
+//! - the cost, by 5-point Gauss–Legendre per interval;
+//! - the constraint `max |φ|`, `φ = ⟨Ω, ξ⟩ − γ(ξ)` (the generated `constraint_residual`);
+//! - the kinetic energy `T = ½⟨Ω, 𝕀Ω⟩` (𝕀 the model's full inertia matrix) against its balance
+//!   `T(a) + ∫ λ⟨Ω, ξ⟩ dt` (λ from the generated `suslov_omega_dot`). When the constraint value
+//!   vanishes the balance is `T(a)` itself: the integral is left out, so the check stays the
+//!   strict one;
+//! - `|Ω(b) − Ω_b|`, the residual of the interpolant and the boundary residuals;
+//! - the re-integration of the model's Suslov equations (the generated `suslov_omega_dot`) as
+//!   an initial value problem (Verner 9(8), rtol = atol = 1e-12) driven by the computed
+//!   `ξ(t), ξ̇(t)`.
 
 use std::cell::RefCell;
 
+use super::checks::{fine_grid, Diagnostics, Verification, FINE_PER_INTERVAL, GAUSS5};
 use crate::bvp::BvpProblem;
 use crate::ivp::{integrate, IvpOptions};
 use crate::model::Model;
-use crate::suslov::diagnostics::{fine_grid, Diagnostics, FINE_PER_INTERVAL, GAUSS5};
-use crate::suslov::verify::Verification;
 
 use super::problem::LieBvp;
 use super::solve::LieSolution;

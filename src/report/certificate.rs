@@ -3,7 +3,7 @@
 use serde::Serialize;
 
 use super::summary::{finite_or_null, opt_finite_or_null};
-use crate::suslov::certify::SuslovCertificate;
+use crate::lie::certify::SuslovCertificate;
 
 /// One case of `suslov certify` (serialized into `certificate.json`).
 #[derive(Debug, Clone, Default, Serialize)]

@@ -133,13 +133,13 @@ impl std::fmt::Display for CaseStatus {
     }
 }
 
-impl From<crate::suslov::verify::Verdict> for CaseStatus {
+impl From<crate::lie::checks::Verdict> for CaseStatus {
     /// The status of a solution the solver returned: converged if verified, unverified
     /// (with the failed checks) if not.
-    fn from(v: crate::suslov::verify::Verdict) -> Self {
+    fn from(v: crate::lie::checks::Verdict) -> Self {
         match v {
-            crate::suslov::verify::Verdict::Verified => Self::Converged,
-            crate::suslov::verify::Verdict::Unverified { reason } => Self::Unverified(reason),
+            crate::lie::checks::Verdict::Verified => Self::Converged,
+            crate::lie::checks::Verdict::Unverified { reason } => Self::Unverified(reason),
         }
     }
 }

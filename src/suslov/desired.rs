@@ -57,9 +57,7 @@ use super::problem::ENERGY_REL_TOL;
 use super::SuslovError;
 use crate::lie::path::Sampled;
 
-/// Scalars the paths are evaluated on: `f64` and the `num-dual` dual numbers over `f64`.
-pub trait Scalar: DualNum<Primitive = f64> + Copy {}
-impl<T: DualNum<Primitive = f64> + Copy> Scalar for T {}
+pub use crate::lie::path::Scalar;
 
 /// The value and first three time derivatives of a vector path at one time.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -25,56 +25,7 @@ use super::reintegrate::{
 use super::solve::SuslovSolution;
 use super::SuslovError;
 
-/// Fine-grid points per mesh interval.
-pub const FINE_PER_INTERVAL: usize = 10;
-
-/// Gauss–Legendre nodes and weights on [0, 1], 5 points.
-pub(crate) const GAUSS5: [(f64, f64); 5] = [
-    (0.046_910_077_030_668, 0.118_463_442_528_094_5),
-    (0.230_765_344_947_158_5, 0.239_314_335_249_683_2),
-    (0.5, 0.284_444_444_444_444_4),
-    (0.769_234_655_052_841_5, 0.239_314_335_249_683_2),
-    (0.953_089_922_969_332, 0.118_463_442_528_094_5),
-];
-
-/// The results of [`diagnose`].
-#[derive(Debug, Clone, PartialEq, serde::Serialize)]
-pub struct Diagnostics {
-    /// `b`.
-    pub terminal_time: f64,
-    /// `∫_a^b C dt`.
-    pub cost: f64,
-    /// `max |⟨Ω, ξ⟩|` on the fine grid.
-    pub max_abs_constraint: f64,
-    /// `min |ξ|`.
-    pub xi_norm_min: f64,
-    /// `max |ξ|`.
-    pub xi_norm_max: f64,
-    /// `max |Ω|` on the fine grid.
-    pub omega_norm_max: f64,
-    /// `T(a) = ½⟨IΩ_a, Ω_a⟩`, the kinetic energy the dynamics conserve.
-    pub kinetic_energy: f64,
-    /// `max |T(t) − T(a)|`, `T = ½⟨IΩ, Ω⟩`.
-    pub energy_drift: f64,
-    /// `|Ω(b) − Ω_b|`.
-    pub omega_b_error: f64,
-    /// `max |y'(s) − T f(y(s))|` of the interpolant on the fine grid (absolute).
-    pub max_residual: f64,
-    /// The same, each component divided by `1 + |T f|`.
-    pub max_relative_residual: f64,
-    /// The interpolant's estimated local error in the units of the solver's tolerance
-    /// weights: `max h_i |y_j'(s) − T f_j(y(s))| / (1 + |y_j(s)|)` over the fine grid, `h_i`
-    /// the width (in `s`) of the mesh interval containing `s`. This is the quantity the
-    /// BVP solver's default error control keeps below `tol` (with `atol = tol`: weights
-    /// `tol (1 + |y_j|)`, see [`crate::bvp::ErrorControl::Error`]), measured here at
-    /// [`FINE_PER_INTERVAL`]` + 1` points per interval (max) instead of the solver's three
-    /// interior Lobatto points (RMS).
-    pub max_local_error: f64,
-    /// `max |g(y(a), y(b), T)|` (boundary conditions, incl. free time).
-    pub bc_residual: f64,
-    /// Fine-grid points used.
-    pub grid_points: usize,
-}
+pub use crate::lie::checks::{fine_grid, Diagnostics, FINE_PER_INTERVAL, GAUSS5};
 
 /// The a-posteriori re-integration and the stability experiment.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]
@@ -88,18 +39,6 @@ pub struct Reintegration {
     /// Stability experiment: `(description, report)`.
     #[serde(skip)]
     pub stability: Vec<(String, StabilityReport)>,
-}
-
-/// Fine grid on `s ∈ [0, 1]`: every mesh interval subdivided `per` times.
-pub fn fine_grid(x: &[f64], per: usize) -> Vec<f64> {
-    let mut s = Vec::with_capacity((x.len() - 1) * per + 1);
-    for w in x.windows(2) {
-        for k in 0..per {
-            s.push(w[0] + (w[1] - w[0]) * k as f64 / per as f64);
-        }
-    }
-    s.push(*x.last().expect("mesh has nodes"));
-    s
 }
 
 /// Diagnostics of `sol` (see the module docs).

@@ -59,44 +59,7 @@ impl Inertia {
     }
 }
 
-/// `x` is a finite `f64` above the subnormal range (full precision).
-pub(crate) fn is_normal_positive(x: f64) -> bool {
-    x.is_finite() && x >= f64::MIN_POSITIVE
-}
-
-/// The radial projection `v ← v · sqrt(level / q(v))` in place, for any positive definite
-/// quadratic form `q` (here the diagonal [`Inertia`]; in [`crate::lie::path::LevelSet`] a
-/// full matrix) and any [`Scalar`].
-///
-/// When `q(v)` or `level / q(v)` is not a normal `f64` (a huge or tiny `v`), `v` is first
-/// divided by its largest `|v_i|` at the point (a constant, so dual-number derivatives stay
-/// exact): the projection only depends on the ray. No other checks: a zero vector gives
-/// non-finite output.
-pub(crate) fn project_radially_in_place<D: Scalar>(
-    level: f64,
-    v: &mut [D],
-    quadratic: impl Fn(&[D]) -> D,
-) {
-    let q = quadratic(v);
-    let m = v.iter().map(|x| x.re().abs()).fold(0.0, f64::max);
-    if !(is_normal_positive(q.re()) && is_normal_positive(level / q.re()))
-        && m > 0.0
-        && m.is_finite()
-    {
-        for x in v.iter_mut() {
-            *x /= m;
-        }
-        let scale = quadratic(v).sqrt().recip() * level.sqrt();
-        for x in v.iter_mut() {
-            *x *= scale;
-        }
-        return;
-    }
-    let scale = (q.recip() * level).sqrt();
-    for x in v.iter_mut() {
-        *x *= scale;
-    }
-}
+pub(crate) use crate::lie::path::{is_normal_positive, project_radially_in_place};
 
 /// Kinetic energy `T = ½⟨IΩ, Ω⟩`.
 pub fn kinetic_energy(inertia: &Inertia, omega: &Vector3<f64>) -> f64 {

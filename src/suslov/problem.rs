@@ -137,28 +137,8 @@ pub fn inertia_params(inertia: &Inertia) -> [f64; N_PARAM] {
     model_params(inertia.diag().into(), &CostWeights::ZERO)
 }
 
-/// Fixed or free terminal time.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum TerminalTime {
-    /// `b` is given.
-    Fixed(f64),
-    /// `b` is unknown; the value is where continuation starts (`b_p`, Properties 1–3).
-    Free {
-        /// Start value of `b`.
-        guess: f64,
-    },
-}
+pub use crate::lie::problem::{TerminalTime, ENERGY_REL_TOL};
 
-impl TerminalTime {
-    /// The given `b`, or the starting guess.
-    pub fn initial(&self) -> f64 {
-        match *self {
-            TerminalTime::Fixed(b) | TerminalTime::Free { guess: b } => b,
-        }
-    }
-}
-
-/// A Suslov optimal control problem (paper eq. `dyn_opt_problem_spec` with the cost above).
 #[derive(Clone)]
 pub struct SuslovProblem {
     /// Principal moments of inertia.
@@ -189,9 +169,6 @@ impl std::fmt::Debug for SuslovProblem {
             .finish_non_exhaustive()
     }
 }
-
-/// Relative energy mismatch allowed between `Ω_a` and `Ω_b` (their kinetic energies).
-pub const ENERGY_REL_TOL: f64 = 1e-9;
 
 /// What is wrong with a [`SuslovProblem`]; each names the field and the fix.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
