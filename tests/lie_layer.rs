@@ -488,3 +488,53 @@ fn a_sampled_desired_path_of_another_model_loads_projected_and_checked() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Every so(3) example file, solved by the so(3) layer and by the generic layer
+/// (`SuslovProblem::to_generic`, the desired path shared through `AsLiePath`): the same
+/// verdict, and b and J to 1e-9 relative where both converge. The gate for routing so(3)
+/// through the generic layer.
+#[test]
+fn every_so3_example_solves_the_same_in_both_layers() {
+    use suslov::config::{load_any, Loaded};
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let mut compared = 0;
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    files.sort();
+    for path in files {
+        let Loaded::So3(loaded) = load_any(&path).unwrap().0 else {
+            continue;
+        };
+        let old = suslov::suslov::solve::solve(&loaded.problem, &loaded.options, &mut |_| {});
+        let generic = loaded.problem.to_generic().expect("valid in both layers");
+        let new = lie::solve(&generic, &loaded.options, &mut |_| {});
+        let (old, new) = match (old, new) {
+            (Ok(a), Ok(b)) => (a, b),
+            (a, b) => panic!(
+                "{}: the layers end differently: {:?} vs {:?}",
+                path.display(),
+                a.err().map(|e| e.to_string()),
+                b.err().map(|e| e.to_string())
+            ),
+        };
+        let v_old = suslov::suslov::verify::verify_solution(&old);
+        let v_new = lie::verify_solution(&new);
+        assert_eq!(
+            v_old.passed(),
+            v_new.verification.passed(),
+            "{}",
+            path.display()
+        );
+        let (b0, b1) = (old.terminal_time(), new.terminal_time());
+        let j0 = suslov::suslov::diagnostics::diagnose(&old).cost;
+        let j1 = v_new.diagnostics.cost;
+        eprintln!("{}: b {b0} vs {b1}, J {j0} vs {j1}", path.display());
+        assert!((b0 - b1).abs() <= 1e-9 * b0.abs(), "{}: b", path.display());
+        assert!((j0 - j1).abs() <= 1e-9 * j0.abs(), "{}: J", path.display());
+        compared += 1;
+    }
+    assert!(compared >= 7, "{compared} so(3) examples");
+}

@@ -73,7 +73,6 @@ impl TerminalTime {
     }
 }
 
-/// A Suslov optimal control problem (paper eq. `dyn_opt_problem_spec` with the cost above).
 /// Relative energy mismatch allowed between `Ω_a` and `Ω_b` (their kinetic energies).
 pub const ENERGY_REL_TOL: f64 = 1e-9;
 

@@ -48,6 +48,8 @@
 //! `σ(a − b_d) = ½(1 + tanh(−1000)) = 0` exactly, and `s(t) = 0` exactly for
 //! `t < b_d − 19.1 w ≈ 9.809`: there `Ω_d = φ_∥` bit for bit.
 
+use std::sync::Arc;
+
 use nalgebra::Vector3;
 use num_dual::Dual3;
 pub use num_dual::DualNum;
@@ -76,6 +78,35 @@ pub struct Jet {
 pub trait PathEval {
     /// `Ω(t)` for a (dual) time `t`.
     fn eval<D: Scalar>(&self, t: D) -> [D; 3];
+}
+
+/// An so(3) desired path as a path of the generic layer ([`crate::lie::path::Path`],
+/// dimension [`DIM`](crate::model::generated::DIM)): the bridge that lets the generic layer
+/// solve the so(3) layer's problems.
+#[derive(Clone)]
+pub struct AsLiePath(pub Arc<dyn DesiredPath + Send + Sync>);
+
+impl crate::lie::path::Path for AsLiePath {
+    fn dim(&self) -> usize {
+        crate::model::generated::DIM
+    }
+
+    fn jet_into(&self, t: f64, out: &mut [f64]) {
+        let n = crate::model::generated::DIM;
+        assert_eq!(
+            out.len(),
+            4 * n,
+            "AsLiePath::jet_into: out has the wrong length"
+        );
+        let j = self.0.jet(t);
+        for (block, v) in out.chunks_exact_mut(n).zip([j.value, j.d1, j.d2, j.d3]) {
+            block.copy_from_slice(v.as_slice());
+        }
+    }
+
+    fn value_into(&self, t: f64, out: &mut [f64]) {
+        out.copy_from_slice(self.0.value(t).as_slice());
+    }
 }
 
 /// A desired body angular velocity with exact derivatives (dyn-compatible).

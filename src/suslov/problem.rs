@@ -139,6 +139,7 @@ pub fn inertia_params(inertia: &Inertia) -> [f64; N_PARAM] {
 
 pub use crate::lie::problem::{TerminalTime, ENERGY_REL_TOL};
 
+/// A Suslov optimal control problem (paper eq. `dyn_opt_problem_spec` with the cost above).
 #[derive(Clone)]
 pub struct SuslovProblem {
     /// Principal moments of inertia.
@@ -155,6 +156,22 @@ pub struct SuslovProblem {
     pub terminal: TerminalTime,
     /// The desired body angular velocity `Ω_d(t)`, with exact derivatives.
     pub desired: Arc<dyn DesiredPath + Send + Sync>,
+}
+
+impl SuslovProblem {
+    /// The same problem for the generic layer (model `so3`, [`crate::lie::Problem`]); the
+    /// desired path is shared ([`super::desired::AsLiePath`]).
+    pub fn to_generic(&self) -> Result<crate::lie::Problem<g::So3>, crate::lie::ProblemError> {
+        let p = model_params(self.inertia.diag().into(), &self.weights);
+        crate::lie::Problem::new(
+            &p[..g::N_USER_PARAM],
+            self.t0,
+            self.omega_a.as_slice().to_vec(),
+            self.omega_b.as_slice().to_vec(),
+            self.terminal,
+            Arc::new(super::desired::AsLiePath(self.desired.clone())),
+        )
+    }
 }
 
 impl std::fmt::Debug for SuslovProblem {
