@@ -39,7 +39,7 @@
 //! line of solutions with the same motion. With `c ≠ 0` it is regular (`Ṫ = λ(φ + c)` on the
 //! motion breaks the tie). So the paper's form is used whenever the constraint value vanishes
 //! (every `γ ≡ 0` model, and `c = 0`), the start constraint otherwise; the homotopy switches
-//! from one to the other when it leaves `c = 0` ([`super::solve`]).
+//! from one to the other when it leaves `c = 0` ([`super::solve`](mod@super::solve)).
 //!
 //! Unknown parameters: `[T]` (free terminal time), then `[μ]` (with the start constraint), in
 //! this order ([`LieBvp::span_index`], [`LieBvp::mu_index`]).
@@ -404,7 +404,7 @@ pub struct LieBvp<'a, M: Model> {
     pub start_constraint: bool,
     /// With the start constraint: impose `φ(a) = −level_shift` instead, i.e. the constraint
     /// level `⟨Ω, ξ⟩ = γ − level_shift` (0 but in the homotopy's constraint stage,
-    /// [`super::solve`]).
+    /// [`super::solve`](mod@super::solve)).
     pub level_shift: f64,
     /// The model.
     pub model: PhantomData<M>,
