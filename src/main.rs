@@ -4,10 +4,10 @@
 //!
 //! | status | meaning |
 //! |---|---|
-//! | 0 | success: every case converged and verified / certified / rank 4 on M |
+//! | 0 | success: every case converged and verified / certified / rank dim M on M (4 for so3) |
 //! | 1 | error: a bad problem file or argument, an unwritable or busy output; nothing was solved, or the run stopped |
 //! | 2 | usage: the command line itself is malformed (clap) |
-//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not 4 on M |
+//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M |
 //! | 128 + n | stopped by signal n (130: SIGINT, 143: SIGTERM, 129: SIGHUP); temporary files removed, the output directory keeps its `INCOMPLETE` mark |
 //!
 //! Nothing here panics on a closed standard output or error (`suslov … | head -1`): text
@@ -59,9 +59,10 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Accessibility rank test of Suslov's pure equations (paper section 4.3): rank of
-    /// V = [g1, g2, g3, [g_i, g_j]], its singular values and the drift, at one state
-    /// (--omega and --xi) or at random states of M with the energy of --omega-a.
+    /// Accessibility rank test of Suslov's pure equations (paper section 4.3) for any model
+    /// (--model): rank of V = [g_1 .. g_n, [g_i, g_j]] and its singular values at one state
+    /// (--omega and --xi) or at random states of M with the energy of --omega-a (or along
+    /// optimal trajectories, --along).
     Controllability(ControllabilityArgs),
     /// Second-order certificate: solve the paper's two cases (or CONFIG), transcribe each
     /// solution directly on its own mesh, move it to the exact KKT point of the discretized
@@ -134,7 +135,7 @@ enum Outcome {
     Success,
     /// 1: bad input, unwritable or busy output.
     Error,
-    /// 3: results written, but not converged / not certified / not rank 4.
+    /// 3: results written, but not converged / not certified / not rank dim M.
     Negative,
 }
 
