@@ -583,10 +583,11 @@ fn parse_named_parameters<M: Model>(
         }
         let v: f64 = value.parse().map_err(|e| {
             err(format!(
-                "{}={}: {} is not a number ({e})",
+                "{}={}: not a number ({e}); {}: {}",
                 meta.name,
                 crate::echo::echo(value),
-                crate::echo::echo(value)
+                meta.name,
+                meta.doc
             ))
         })?;
         if !v.is_finite() {
