@@ -821,12 +821,18 @@ pub struct RankAlong {
 /// Arguments of `suslov controllability` at given states (not `--along`).
 #[derive(Debug, Clone)]
 pub struct RankAtStates<'a> {
-    /// `--inertia`, `"I1,I2,I3"`.
-    pub inertia: &'a str,
+    /// `--model`: a generated model's name ([`crate::model::MODEL_NAMES`]).
+    pub model: &'a str,
+    /// `--inertia`: for so3 `"I1,I2,I3"` (default `1,2,3`) or `I1=…,I2=…,I3=…`; for the other
+    /// models `name=value` pairs of the model's inertia parameters (required).
+    pub inertia: Option<&'a str>,
+    /// `--constraint`: `name=value` pairs of the model's constraint parameters (required for a
+    /// model that has them, refused for the others).
+    pub constraint: Option<&'a str>,
     /// `--omega` and `--xi`: one state.
     pub state: Option<(&'a str, &'a str)>,
-    /// `--omega-a`: the energy of the sampled states.
-    pub omega_a: &'a str,
+    /// `--omega-a`: the energy of the sampled states (default `5,0,…,0`).
+    pub omega_a: Option<&'a str>,
     /// `--samples`.
     pub samples: usize,
     /// `--seed`.
@@ -835,9 +841,29 @@ pub struct RankAtStates<'a> {
     pub rtol: f64,
 }
 
-/// `suslov controllability` at one state or at sampled states of `M`: every argument is
-/// checked (named in the error) before any work; returns the table and its verdict.
+/// `suslov controllability` at one state or at sampled states of `M`, for any model: so3
+/// through the so(3) layer ([`crate::suslov::controllability::report_table`], the paper's
+/// table), the other models through the generic layer ([`lie::run_model_rank_at_states`]).
+/// Every argument is checked (named in the error) before any work; returns the table and its
+/// verdict.
 pub fn run_rank_at_states(
+    a: &RankAtStates,
+) -> Result<(String, crate::suslov::controllability::AccessibilityVerdict), AppError> {
+    use crate::model::{with_model, MODEL_NAMES};
+    if a.model == crate::model::so3::MODEL_NAME {
+        return run_so3_rank_at_states(a);
+    }
+    with_model!(a.model, M => lie::run_model_rank_at_states::<M>(a), _ => {
+        Err(AppError::InvalidArgument(format!(
+            "--model: there is no model {}; the models are {}",
+            crate::echo::echo(a.model),
+            MODEL_NAMES.join(", ")
+        )))
+    })
+}
+
+/// [`run_rank_at_states`] for so3: `--inertia` as `I1,I2,I3` (or named), no `--constraint`.
+fn run_so3_rank_at_states(
     a: &RankAtStates,
 ) -> Result<(String, crate::suslov::controllability::AccessibilityVerdict), AppError> {
     use crate::suslov::controllability as c;
@@ -857,7 +883,23 @@ pub fn run_rank_at_states(
         }
     };
     c::check_rtol(a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
-    let diag = vec3("--inertia", a.inertia)?;
+    type So3 = crate::model::so3::So3;
+    // Refuses --constraint (so3 has no constraint parameters).
+    lie::constraint_parameters::<So3>(a.constraint, &mut [0.0; crate::model::generated::N_PARAM])?;
+    let inertia_text = match a.inertia {
+        None => "1,2,3".to_string(),
+        // Named, as for the other models: in the order of the inertia parameters.
+        Some(text) if text.contains('=') => {
+            let p = lie::rank_parameters::<So3>(Some(text), None)?;
+            <So3 as crate::model::Model>::INERTIA_PARAMS
+                .iter()
+                .map(|m| p[m.index].to_string())
+                .collect::<Vec<_>>()
+                .join(",")
+        }
+        Some(text) => text.to_string(),
+    };
+    let diag = vec3("--inertia", &inertia_text)?;
     let inertia = Inertia::new(diag.into()).map_err(|e| arg("--inertia", e))?;
     let states = match a.state {
         Some((om, xi)) => vec![(vec3("--omega", om)?, vec3("--xi", xi)?)],
@@ -869,7 +911,7 @@ pub fn run_rank_at_states(
                     a.samples
                 )));
             }
-            let om = vec3("--omega-a", a.omega_a)?;
+            let om = vec3("--omega-a", a.omega_a.unwrap_or("5,0,0"))?;
             let energy2 = inertia.apply(&om).dot(&om);
             if om.iter().all(|x| *x == 0.0) {
                 return Err(AppError::InvalidArgument(

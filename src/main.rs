@@ -4,10 +4,10 @@
 //!
 //! | status | meaning |
 //! |---|---|
-//! | 0 | success: every case converged and verified / certified / rank 4 on M |
+//! | 0 | success: every case converged and verified / certified / rank dim M on M (4 for so3) |
 //! | 1 | error: a bad problem file or argument, an unwritable or busy output; nothing was solved, or the run stopped |
 //! | 2 | usage: the command line itself is malformed (clap) |
-//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not 4 on M |
+//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M |
 //! | 128 + n | stopped by signal n (130: SIGINT, 143: SIGTERM, 129: SIGHUP); temporary files removed, the output directory keeps its `INCOMPLETE` mark |
 //!
 //! Nothing here panics on a closed standard output or error (`suslov … | head -1`): text
@@ -59,9 +59,10 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
-    /// Accessibility rank test of Suslov's pure equations (paper section 4.3): rank of
-    /// V = [g1, g2, g3, [g_i, g_j]], its singular values and the drift, at one state
-    /// (--omega and --xi) or at random states of M with the energy of --omega-a.
+    /// Accessibility rank test of Suslov's pure equations (paper section 4.3) for any model
+    /// (--model): rank of V = [g_1 .. g_n, [g_i, g_j]] and its singular values at one state
+    /// (--omega and --xi) or at random states of M with the energy of --omega-a (or along
+    /// optimal trajectories, --along).
     Controllability(ControllabilityArgs),
     /// Second-order certificate: solve the paper's two cases (or CONFIG), transcribe each
     /// solution directly on its own mesh, move it to the exact KKT point of the discretized
@@ -85,18 +86,30 @@ enum Command {
 /// Arguments of `suslov controllability`.
 #[derive(clap::Args)]
 struct ControllabilityArgs {
-    /// Principal moments of inertia, e.g. `1,2,3` (the paper's).
-    #[arg(long, default_value = "1,2,3", allow_hyphen_values = true)]
-    inertia: String,
-    /// Evaluate at this Omega (needs --xi), e.g. `5,0,0`.
+    /// The model (codegen/models/<NAME>.py): so3 (the paper's), so3_full, se2, so4,
+    /// so3_inhomogeneous, ...
+    #[arg(long, default_value = "so3", conflicts_with = "along")]
+    model: String,
+    /// Inertia: for so3 the principal moments, e.g. `1,2,3` (the paper's, the default) or
+    /// `I1=1,I2=2,I3=3`; for the other models their inertia parameters as name=value pairs,
+    /// e.g. `m=1,Ic=0.5,c1=0.3,c2=0.1` (se2).
+    #[arg(long, allow_hyphen_values = true)]
+    inertia: Option<String>,
+    /// The constraint parameters of a model that has them, as name=value pairs, e.g. `c=0.25`
+    /// (so3_inhomogeneous: <Omega, xi> = c).
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "along")]
+    constraint: Option<String>,
+    /// Evaluate at this Omega (needs --xi; one entry per basis element), e.g. `5,0,0`.
     #[arg(long, allow_hyphen_values = true, requires = "xi")]
     omega: Option<String>,
-    /// Evaluate at this xi (needs --omega), e.g. `0,1,0`.
+    /// Evaluate at this xi (needs --omega), e.g. `0,1,0`; off the constraint level, the
+    /// nearest state on it is tested.
     #[arg(long, allow_hyphen_values = true, requires = "omega")]
     xi: Option<String>,
-    /// Without --omega/--xi: sample states of M on the energy ellipsoid through this Omega.
-    #[arg(long, default_value = "5,0,0", allow_hyphen_values = true)]
-    omega_a: String,
+    /// Without --omega/--xi: sample states of M on the energy level set through this Omega
+    /// [default: 5,0,...,0].
+    #[arg(long, allow_hyphen_values = true)]
+    omega_a: Option<String>,
     /// Number of random states of M (at most 100000).
     #[arg(long, default_value_t = 8)]
     samples: usize,
@@ -122,7 +135,7 @@ enum Outcome {
     Success,
     /// 1: bad input, unwritable or busy output.
     Error,
-    /// 3: results written, but not converged / not certified / not rank 4.
+    /// 3: results written, but not converged / not certified / not rank dim M.
     Negative,
 }
 
@@ -358,9 +371,11 @@ fn main() -> ExitCode {
         }
         Command::Controllability(a) => {
             let request = app::RankAtStates {
-                inertia: &a.inertia,
+                model: &a.model,
+                inertia: a.inertia.as_deref(),
+                constraint: a.constraint.as_deref(),
                 state: a.omega.as_deref().zip(a.xi.as_deref()),
-                omega_a: &a.omega_a,
+                omega_a: a.omega_a.as_deref(),
                 samples: a.samples,
                 seed: a.seed,
                 rtol: a.rtol,

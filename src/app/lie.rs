@@ -19,10 +19,10 @@ use std::time::Instant;
 
 use crate::config::{generic::LoadedModelProblem, ModelFile};
 use crate::lie::{self, LieSolution, LieSolveError};
-use crate::model::Model;
+use crate::model::{Model, ParamMeta};
 use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
 use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
-use crate::suslov::controllability::RANK_RTOL;
+use crate::suslov::controllability::{AccessibilityVerdict, RANK_RTOL};
 use crate::suslov::verify::Verdict;
 
 use super::{finish, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
@@ -495,4 +495,519 @@ pub fn run_model_rank_along<M: Model>(
         text,
         all_accessible,
     })
+}
+
+/// A number in a message or a header: plain when moderate, else in exponent notation.
+fn num(v: f64) -> String {
+    if v == 0.0 || (1e-4..1e6).contains(&v.abs()) {
+        format!("{v}")
+    } else {
+        format!("{v:e}")
+    }
+}
+
+/// `[a, b, …]` with [`num`].
+fn vec_text(v: &[f64]) -> String {
+    let parts: Vec<String> = v.iter().map(|x| num(*x)).collect();
+    format!("[{}]", parts.join(", "))
+}
+
+/// The parameters `metas` with their docs, for a message.
+fn parameter_list(metas: &[ParamMeta]) -> String {
+    metas
+        .iter()
+        .map(|m| format!("{} ({})", m.name, m.doc))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// An admissible example `name=value,…` of `metas`: the lower bound + 1, or 0 when unbounded
+/// below (the upper bound if 0 exceeds it).
+fn parameter_example(metas: &[ParamMeta]) -> String {
+    metas
+        .iter()
+        .map(|m| {
+            let v = match (m.lower, m.upper) {
+                (Some(lo), Some(hi)) => (lo + 1.0).min(hi),
+                (Some(lo), None) => lo + 1.0,
+                (None, Some(hi)) => hi.min(0.0),
+                (None, None) => 0.0,
+            };
+            format!("{}={}", m.name, num(v))
+        })
+        .collect::<Vec<_>>()
+        .join(",")
+}
+
+/// Reads `name=value,…` for the parameters `metas` of model `M` from the flag `flag` (every
+/// one required, each admissible) into `p`.
+fn parse_named_parameters<M: Model>(
+    flag: &str,
+    what: &str,
+    text: &str,
+    metas: &[ParamMeta],
+    p: &mut [f64],
+) -> Result<(), AppError> {
+    let err = |message: String| AppError::InvalidArgument(format!("{flag}: {message}"));
+    let usage = || {
+        format!(
+            "model {} takes its {what} as name=value pairs, e.g. {flag} {}; its parameters: {}",
+            M::NAME,
+            parameter_example(metas),
+            parameter_list(metas)
+        )
+    };
+    let mut given: Vec<&str> = Vec::new();
+    for entry in text.split(',') {
+        let Some((name, value)) = entry.split_once('=') else {
+            return Err(err(format!(
+                "{} is not name=value; {}",
+                crate::echo::echo(entry.trim()),
+                usage()
+            )));
+        };
+        let (name, value) = (name.trim(), value.trim());
+        let Some(meta) = metas.iter().find(|m| m.name == name) else {
+            return Err(err(format!(
+                "model {} has no parameter {}; {}",
+                M::NAME,
+                crate::echo::echo(name),
+                usage()
+            )));
+        };
+        if given.contains(&meta.name) {
+            return Err(err(format!(
+                "{} is given twice; give each parameter once",
+                meta.name
+            )));
+        }
+        let v: f64 = value.parse().map_err(|e| {
+            err(format!(
+                "{}={}: not a number ({e}); {}: {}",
+                meta.name,
+                crate::echo::echo(value),
+                meta.name,
+                meta.doc
+            ))
+        })?;
+        if !v.is_finite() {
+            return Err(err(format!(
+                "{} = {v} is not a finite number; {}: {}",
+                meta.name, meta.name, meta.doc
+            )));
+        }
+        if !meta.admits(v) {
+            return Err(err(format!(
+                "{} = {} is not admissible: {}",
+                meta.name,
+                num(v),
+                meta.doc
+            )));
+        }
+        p[meta.index] = v;
+        given.push(meta.name);
+    }
+    let missing: Vec<&str> = metas
+        .iter()
+        .map(|m| m.name)
+        .filter(|name| !given.contains(name))
+        .collect();
+    if !missing.is_empty() {
+        return Err(err(format!("missing {}; {}", missing.join(", "), usage())));
+    }
+    Ok(())
+}
+
+/// Reads `n` comma-separated finite numbers (a vector of the Lie algebra of `M`).
+fn parse_algebra_vector<M: Model>(flag: &str, text: &str) -> Result<Vec<f64>, AppError> {
+    let n = M::DIM;
+    let shape = || {
+        format!(
+            "model {} has dimension n = {n} (basis {}): give {n} comma-separated numbers, e.g. \
+             {}",
+            M::NAME,
+            M::BASIS_NAMES.join(", "),
+            (0..n)
+                .map(|i| if i == 0 { "1" } else { "0" })
+                .collect::<Vec<_>>()
+                .join(",")
+        )
+    };
+    let parts: Vec<&str> = text.split(',').collect();
+    if parts.len() != n {
+        return Err(AppError::InvalidArgument(format!(
+            "{flag}: {} has {} comma-separated entries; {}",
+            crate::echo::echo(text),
+            parts.len(),
+            shape()
+        )));
+    }
+    let v = parts
+        .iter()
+        .map(|s| {
+            s.trim().parse::<f64>().map_err(|e| {
+                AppError::InvalidArgument(format!(
+                    "{flag}: {} is not a number ({e}); {}",
+                    crate::echo::echo(s.trim()),
+                    shape()
+                ))
+            })
+        })
+        .collect::<Result<Vec<f64>, _>>()?;
+    if !v.iter().all(|x| x.is_finite()) {
+        return Err(AppError::InvalidArgument(format!(
+            "{flag}: {} is not {n} finite numbers; {}",
+            crate::echo::echo(text),
+            shape()
+        )));
+    }
+    Ok(v)
+}
+
+/// The constants `p` of model `M` from `--inertia` and `--constraint` (the weights, which the
+/// control fields do not involve, stay 0), checked and with the derived constants filled.
+pub(crate) fn rank_parameters<M: Model>(
+    inertia: Option<&str>,
+    constraint: Option<&str>,
+) -> Result<Vec<f64>, AppError> {
+    let mut p = vec![0.0; M::N_PARAM];
+    let inertia = inertia.ok_or_else(|| {
+        AppError::InvalidArgument(format!(
+            "--inertia: model {} needs its inertia parameters as name=value pairs, e.g. \
+             --inertia {}; its parameters: {}",
+            M::NAME,
+            parameter_example(M::INERTIA_PARAMS),
+            parameter_list(M::INERTIA_PARAMS)
+        ))
+    })?;
+    parse_named_parameters::<M>(
+        "--inertia",
+        "inertia parameters",
+        inertia,
+        M::INERTIA_PARAMS,
+        &mut p,
+    )?;
+    constraint_parameters::<M>(constraint, &mut p)?;
+    crate::model::fill_derived::<M>(&mut p).map_err(|e| {
+        AppError::InvalidArgument(format!(
+            "--inertia: {e} (give parameters of a positive definite inertia, e.g. --inertia {})",
+            parameter_example(M::INERTIA_PARAMS)
+        ))
+    })?;
+    Ok(p)
+}
+
+/// Reads `--constraint` (`name=value` pairs of the constraint parameters of `M`) into `p`:
+/// required for a model with constraint parameters, refused for the others.
+pub(crate) fn constraint_parameters<M: Model>(
+    constraint: Option<&str>,
+    p: &mut [f64],
+) -> Result<(), AppError> {
+    match (constraint, M::CONSTRAINT_PARAMS.is_empty()) {
+        (Some(_), true) => {
+            let with: Vec<String> = crate::model::MODEL_NAMES
+                .iter()
+                .filter_map(|name| {
+                    crate::model::with_model!(*name, N => {
+                        (!N::CONSTRAINT_PARAMS.is_empty()).then(|| {
+                            format!(
+                                "{name} ({})",
+                                N::CONSTRAINT_PARAMS
+                                    .iter()
+                                    .map(|m| m.name)
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            )
+                        })
+                    }, _ => None)
+                })
+                .collect();
+            Err(AppError::InvalidArgument(format!(
+                "--constraint: model {} has no constraint parameters (its constraint is \
+                 <Omega, xi> = 0); drop --constraint (models with constraint parameters: {})",
+                M::NAME,
+                if with.is_empty() {
+                    "none".to_string()
+                } else {
+                    with.join(", ")
+                }
+            )))
+        }
+        (None, false) => Err(AppError::InvalidArgument(format!(
+            "--constraint: model {} needs its constraint parameters as name=value pairs, \
+                 e.g. --constraint {}; its parameters: {}",
+            M::NAME,
+            parameter_example(M::CONSTRAINT_PARAMS),
+            parameter_list(M::CONSTRAINT_PARAMS)
+        ))),
+        (Some(text), false) => parse_named_parameters::<M>(
+            "--constraint",
+            "constraint parameters",
+            text,
+            M::CONSTRAINT_PARAMS,
+            p,
+        ),
+        (None, true) => Ok(()),
+    }
+}
+
+/// `suslov controllability [--omega … --xi …]` for model `M` (not so3, whose table is the
+/// so(3) layer's): the accessibility rank test ([`lie::controllability::rank_at`]) at one
+/// state or at `--samples` seeded states of `M` ([`lie::controllability::sample_states`]);
+/// every argument is checked (named in the error) before any work. Returns the table and its
+/// verdict (rank `dim M` at every state of `M` tested, or not).
+pub fn run_model_rank_at_states<M: Model>(
+    a: &super::RankAtStates,
+) -> Result<(String, AccessibilityVerdict), AppError> {
+    use crate::lie::controllability::{rank_at, sample_states, ON_LEVEL_RTOL};
+    use crate::suslov::controllability as c;
+    use std::fmt::Write;
+    c::check_rtol(a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+    let p = rank_parameters::<M>(a.inertia, a.constraint)?;
+    let n = M::DIM;
+    let conserves_energy = crate::model::constraint_value_vanishes::<M>(&p);
+    let dim_m = lie::controllability::dim_m::<M>(&p);
+    let (states, origin) = match a.state {
+        Some((om, xi)) => {
+            let mut x = parse_algebra_vector::<M>("--omega", om)?;
+            x.extend(parse_algebra_vector::<M>("--xi", xi)?);
+            if x[M::XI].iter().all(|v| *v == 0.0) {
+                return Err(AppError::InvalidArgument(
+                    "--xi: xi = 0 is no constraint (M needs xi != 0); give a nonzero xi".into(),
+                ));
+            }
+            (vec![x], "the state given (--omega, --xi)".to_string())
+        }
+        None => {
+            if !(1..=c::MAX_STATES).contains(&a.samples) {
+                return Err(AppError::InvalidArgument(format!(
+                    "--samples must be between 1 and {}, got {}",
+                    c::MAX_STATES,
+                    a.samples
+                )));
+            }
+            let omega_a = match a.omega_a {
+                Some(text) => parse_algebra_vector::<M>("--omega-a", text)?,
+                None => (0..n).map(|i| if i == 0 { 5.0 } else { 0.0 }).collect(),
+            };
+            if omega_a.iter().all(|v| *v == 0.0) {
+                return Err(AppError::InvalidArgument(
+                    "--omega-a = 0: the sampled states need a positive kinetic energy; give a \
+                     nonzero vector"
+                        .into(),
+                ));
+            }
+            let states = sample_states::<M>(&p, &omega_a, a.samples, a.seed)
+                .map_err(|e| AppError::InvalidArgument(format!("--omega-a with --inertia: {e}")))?;
+            let mut inertia = vec![0.0; n * n];
+            M::inertia_matrix(&p, &mut inertia);
+            let level: f64 = (0..n)
+                .map(|i| omega_a[i] * (0..n).map(|j| inertia[i * n + j] * omega_a[j]).sum::<f64>())
+                .sum();
+            let choice = if conserves_energy {
+                String::new()
+            } else {
+                " (with a nonzero constraint value M is the constraint level alone and the \
+                 energy is not fixed on it: fixing it is one choice of states of M)"
+                    .to_string()
+            };
+            (
+                states,
+                format!(
+                    "{} seeded random states (--seed {}): Omega drawn uniformly in [-1, 1]^{n} and \
+                     projected radially onto the energy level set <Omega, I Omega> = {} through \
+                     Omega_a = {}{choice}; xi drawn uniformly in [-1, 1]^{n}",
+                    a.samples,
+                    a.seed,
+                    num(level),
+                    vec_text(&omega_a)
+                ),
+            )
+        }
+    };
+    let rows = states
+        .iter()
+        .map(|x| rank_at::<M>(x, &p, a.rtol))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|e| {
+            let flag = if a.state.is_some() {
+                "--omega, --xi"
+            } else {
+                "--omega-a with --inertia"
+            };
+            AppError::InvalidArgument(format!("{flag}: {e}"))
+        })?;
+
+    let mut s = String::new();
+    let parameters: Vec<String> = M::INERTIA_PARAMS
+        .iter()
+        .chain(M::CONSTRAINT_PARAMS)
+        .map(|m| format!("{} = {}", m.name, num(p[m.index])))
+        .collect();
+    let _ = writeln!(
+        s,
+        "Accessibility of Suslov's pure equations, model {}: {}\n\
+         x = [Omega, xi], u = xi' (paper section 4.3, for any Lie algebra); {}; basis {}\n\
+         V = [g_1 .. g_{n}, [g_i, g_j] (i < j)] ({n} + {} columns); rank = #{{sigma_k > {:e} \
+         sigma_1}}",
+        M::NAME,
+        M::TITLE,
+        parameters.join(", "),
+        M::BASIS_NAMES.join(", "),
+        M::N_BRACKETS,
+        a.rtol
+    );
+    let _ = writeln!(
+        s,
+        "{}\nStates: {origin}.\nEach row is the state tested: the state moved onto the \
+         constraint level phi = <Omega, xi> - gamma(xi) = 0 (xi along dphi/dxi){}; \
+         |phi|/(|Om||xi|) is that of the state before the move.\n",
+        if conserves_energy {
+            format!(
+                "M = {{<Omega, xi> = 0, 1/2 <I Omega, Omega> = e > 0, xi != 0}}: dim M = 2n - 2 \
+                 = {dim_m}"
+            )
+        } else {
+            format!(
+                "M = {{phi = <Omega, xi> - gamma(xi) = 0, Omega != 0}} (the energy is not \
+                 conserved: dT/dt = lambda gamma): dim M = 2n - 1 = {dim_m}"
+            )
+        },
+        if conserves_energy {
+            ", with xi scaled to unit length (the rank does not depend on it, the \
+             conditioning does)"
+        } else {
+            ""
+        }
+    );
+    let cell = |x: f64| {
+        if x == 0.0 || (1e-3..1e6).contains(&x.abs()) {
+            format!("{x:7.3}")
+        } else {
+            format!("{x:7.1e}")
+        }
+    };
+    let vector = |v: &[f64]| {
+        let parts: Vec<String> = v.iter().map(|x| cell(*x)).collect();
+        format!("[{}]", parts.join(", "))
+    };
+    let width = 9 * n;
+    let (label_dim, label_next) = (
+        format!("sigma_{dim_m}/sigma_1"),
+        format!("sigma_{}/sigma_1", dim_m + 1),
+    );
+    let _ = writeln!(
+        s,
+        "{:>3}  {:>width$}  {:>width$}  {:>16}  {:>4}  {:>4}  {:>ld$}  {:>ln$}",
+        "#",
+        "Omega",
+        "xi",
+        "|phi|/(|Om||xi|)",
+        "on M",
+        "rank",
+        label_dim,
+        label_next,
+        ld = label_dim.len(),
+        ln = label_next.len(),
+    );
+    for (k, r) in rows.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            "{:>3}  {:>width$}  {:>width$}  {:>16.1e}  {:>4}  {:>4}  {:>ld$.3e}  {:>ln$.1e}",
+            k,
+            vector(&r.tested[M::OMEGA]),
+            vector(&r.tested[M::XI]),
+            r.violation,
+            if r.on_m { "yes" } else { "no" },
+            r.rank,
+            r.sigma_dim_m,
+            r.sigma_next,
+            ld = label_dim.len(),
+            ln = label_next.len(),
+        );
+    }
+    for ((k, r), given) in rows.iter().enumerate().zip(&states) {
+        if r.moved {
+            let _ = writeln!(
+                s,
+                "state {k} as given, Omega = {}, xi = {}, is off the constraint level \
+                 (|phi|/(|Omega||xi|) = {:.3e} > {ON_LEVEL_RTOL:e}): the row is the nearest \
+                 state on it",
+                vec_text(&given[M::OMEGA]),
+                vec_text(&given[M::XI]),
+                r.violation
+            );
+        }
+    }
+    if rows.iter().any(|r| r.scales != (0, 0)) {
+        let _ = writeln!(
+            s,
+            "(states with a component beyond 2^20 or all below 2^-20 in size: V and its \
+             singular values are evaluated at Omega and xi rescaled by exact powers of two, \
+             which leaves the rank and M unchanged)"
+        );
+    }
+    let on_m_rows: Vec<_> = rows.iter().filter(|r| r.on_m).collect();
+    let off_m: Vec<_> = rows.iter().filter(|r| !r.on_m).collect();
+    let span = |v: &[&lie::controllability::StateRank]| match (
+        v.iter().map(|r| r.rank).min(),
+        v.iter().map(|r| r.rank).max(),
+    ) {
+        (Some(lo), Some(hi)) if lo == hi => format!("{lo}"),
+        (Some(lo), Some(hi)) => format!("{lo}..{hi}"),
+        _ => "-".into(),
+    };
+    let failing = on_m_rows.iter().filter(|r| r.rank != dim_m).count();
+    let verdict = if on_m_rows.is_empty() {
+        AccessibilityVerdict::NoStateOnM
+    } else if failing == 0 {
+        AccessibilityVerdict::Accessible {
+            on_m: on_m_rows.len(),
+        }
+    } else {
+        AccessibilityVerdict::RankDeficient {
+            on_m: on_m_rows.len(),
+            failing,
+        }
+    };
+    let _ = writeln!(
+        s,
+        "\nrank on M (Omega != 0, |phi| <= {ON_LEVEL_RTOL:e} |Om||xi| at the state tested): {} \
+         ({} states); off M: {} ({} states)",
+        span(&on_m_rows),
+        on_m_rows.len(),
+        span(&off_m),
+        off_m.len()
+    );
+    match verdict {
+        AccessibilityVerdict::NoStateOnM => {
+            let _ = writeln!(
+                s,
+                "No state tested lies on M (Omega = 0, or the state could not be moved onto the \
+                 constraint level): the rank condition on M says nothing about them."
+            );
+        }
+        AccessibilityVerdict::RankDeficient { on_m, failing } => {
+            let _ = writeln!(
+                s,
+                "rank V != {dim_m} = dim M at {failing} of the {on_m} states of M: the \
+                 first-order brackets do NOT span the tangent space of M there at this \
+                 threshold (check --rtol)."
+            );
+        }
+        AccessibilityVerdict::Accessible { on_m } => {
+            let margin = on_m_rows
+                .iter()
+                .map(|r| r.sigma_dim_m)
+                .fold(f64::INFINITY, f64::min);
+            let _ = writeln!(
+                s,
+                "rank V = {dim_m} = dim M at all {on_m} states of M tested (smallest \
+                 sigma_{dim_m}/sigma_1 {margin:.3e}): the accessibility rank condition holds \
+                 there with first-order brackets (every field is tangent to M, so dim M is the \
+                 largest rank possible)."
+            );
+        }
+    }
+    Ok((s, verdict))
 }
