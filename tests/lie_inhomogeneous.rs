@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use suslov::bvp::{self, BvpProblem, Guess};
 use suslov::config::{load_any, Loaded};
-use suslov::lie::{self, LieBvp};
+use suslov::lie::{self, LieBvp, Problem};
 use suslov::model::so3::So3;
 use suslov::model::so3_inhomogeneous::So3Inhomogeneous;
 use suslov::model::Model;
