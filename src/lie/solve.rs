@@ -454,11 +454,14 @@ fn choose_start<M: Model>(
         }
         StartStrategy::Desired | StartStrategy::DesiredGammaFromZero => {
             if !gamma_positive {
-                return Err(LieSolveError::Start(
-                    "a start from the desired path needs a tracking weight > 0; use the \
-                     segment or auto start"
-                        .into(),
-                ));
+                let name = M::WEIGHTS
+                    .iter()
+                    .find(|w| w.role == HomotopyRole::Tracking)
+                    .map_or("tracking weight", |w| w.name);
+                return Err(LieSolveError::Start(format!(
+                    "a start from the desired path needs {name} > 0 (with {name} = 0 the \
+                     desired path is not part of the cost); use the segment or auto start"
+                )));
             }
             if !admissible(&proj) {
                 return Err(LieSolveError::Start(format!(
