@@ -15,10 +15,11 @@
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
 //! This layer knows nothing of the so(3) problem layer ([`crate::suslov`]), which predates it
-//! and still serves the paper (its figures, certificate and controllability report): the
-//! types both share (options, stage records, events, terminal time, diagnostics,
-//! verification, certificate) live here, and the so(3) layer re-exports them.
-//! `tests/lie_layer.rs` checks that this layer reproduces the so(3) layer's results on the
+//! and still serves the paper's outputs (figures, the stability experiment, its certificate
+//! and controllability reports). The so(3) layer solves through this one
+//! (`SuslovProblem::to_generic`), and the types both share (options, stage records, events,
+//! terminal time, diagnostics, verification, certificate) live here and are re-exported there.
+//! `tests/lie_layer.rs` checks that both layers' diagnostics and certificates agree on the
 //! paper's problems.
 
 pub mod certify;

@@ -7,7 +7,8 @@
 //!    `y = [Ω_p, ξ_p, ξ̇_p, κ = 0]` by the generated `singular_control`; the BVP is solved with
 //!    the `Beta` weight at `β_m`, `Smoothing` and `Time` weights at 0, fixed `T = b_p − a`.
 //!    The choice of `Ω_p` and of the `Tracking` weights' start value follows the paper's three
-//!    cases exactly as the so(3) layer does ([`crate::suslov::solve`]):
+//!    cases (section 5.2; the so(3) layer's own copy of this homotopy, which it replaced,
+//!    made the same choices, and every so(3) example gave the same `b` and `J` in both):
 //!    - tracking weight `> 0` and the projected desired path admissible: `Ω_p` = the desired
 //!      path projected radially onto the level set; the tracking weight starts at its target
 //!      (case 3) when the desired path itself lies on the level set (within
@@ -939,7 +940,7 @@ pub fn solve<M: Model>(
     }
     let base = constraint_free(problem)?;
     let beta_m = options.beta_m.unwrap_or_else(|| {
-        // 1e-2 · min(fixed positive weights, β, γ or 1), as the so(3) layer.
+        // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
         let g = if gamma > 0.0 { gamma } else { 1.0 };
         M::WEIGHTS
             .iter()

@@ -1,6 +1,13 @@
-//! The Suslov problem layer: the energy ellipsoid, desired trajectories with exact
-//! derivatives, the paper's Properties 1–3, the analytic singular solution and the
-//! a-posteriori re-integration of the pure Suslov equations.
+//! The Suslov problem layer (so(3), the paper): the energy ellipsoid, desired trajectories
+//! with exact derivatives (the paper's spiral among them), the paper's Properties 1–3, the
+//! analytic singular solution, the a-posteriori re-integration of the pure Suslov equations
+//! with the paper's stability experiment, and the outputs' view of a solution
+//! ([`SuslovSolution`](solve::SuslovSolution)).
+//!
+//! Solving is the generic layer's ([`crate::lie`], model `so3`): [`solve::solve`] hands the
+//! problem over ([`problem::SuslovProblem::to_generic`]) and converts the result. What remains
+//! here that the generic layer also has (diagnostics, verification glue, certificate glue,
+//! controllability report, Properties 1–3) is the next to go.
 //!
 //! Paper: Putkaradze & Rogers, *Constraint control of nonholonomic mechanical systems*,
 //! section 5 (5.1 analytic singular solution, 5.3 the desired trajectory).
