@@ -120,10 +120,7 @@ fn stage_summaries_of(stages: &[solve::StageReport]) -> Vec<StageSummary> {
         .iter()
         .map(|s| StageSummary {
             name: s.name.to_string(),
-            parameter: match s.name {
-                "beta" | "gamma" | "eta" | "delta" => s.name.to_string(),
-                _ => "-".to_string(),
-            },
+            parameter: s.parameter.to_string(),
             from: s.from,
             to: s.to,
             steps: s.steps,

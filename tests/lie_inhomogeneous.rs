@@ -80,6 +80,18 @@ fn the_example_solves_verified_and_its_trajectory_keeps_omega_xi_equal_to_c() {
     assert!(extra["energy"].as_str().unwrap().starts_with("balanced"));
     assert!(extra["start_multiplier"].as_f64().unwrap().is_finite());
     // The accessibility rank along the solution: 2n - 1 = 5 (the energy is no invariant).
+    // The stage table names what each stage continues: the constraint level from the
+    // level of the paper's conditions (0.2032) to c.
+    let stages = json["cases"][0]["stages"].as_array().unwrap();
+    let level = stages.iter().find(|s| s["name"] == "constraint").unwrap();
+    assert_eq!(level["parameter"], "<Omega, xi>");
+    assert!(
+        (level["from"].as_f64().unwrap() - 0.2032).abs() < 1e-4,
+        "{level}"
+    );
+    assert_eq!(level["to"], 0.25);
+    let beta = stages.iter().find(|s| s["name"] == "beta").unwrap();
+    assert_eq!(beta["parameter"], "beta");
     let acc = &extra["accessibility"];
     assert_eq!(acc["dim_m"], 5, "{acc}");
     assert_eq!(acc["min_rank"], 5, "{acc}");

@@ -150,8 +150,12 @@ impl std::fmt::Display for StageOutcome {
 /// One stage of the homotopy.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StageReport {
-    /// "start", "gamma", "beta", "eta", "delta" or "polish".
+    /// "start", "gamma", "beta", "eta", "delta", "polish", or a stage of the constraint value
+    /// (module docs).
     pub name: &'static str,
+    /// The continued parameter (a weight's name, or what the stage moves), "-" for single
+    /// solves.
+    pub parameter: &'static str,
     /// Start value of the continued parameter.
     pub from: f64,
     /// Target value.
@@ -690,6 +694,7 @@ impl<M: Model> Homotopy<'_, M> {
         }
         let stage_report = StageReport {
             name,
+            parameter: spec.parameter,
             from,
             to,
             steps: outcome.steps(),
@@ -801,7 +806,7 @@ impl<M: Model> Homotopy<'_, M> {
         self.stage_with(
             &StageSpec {
                 name: "constraint",
-                parameter: "<Omega, xi> - gamma + (the target gamma)",
+                parameter: "<Omega, xi>",
                 from: level,
                 to: gamma,
                 at: &to_level,
@@ -853,6 +858,7 @@ impl<M: Model> Homotopy<'_, M> {
         })?;
         let report = StageReport {
             name,
+            parameter: "-",
             from: 0.0,
             to: 0.0,
             steps: usize::from(sol.is_success()),
@@ -1047,6 +1053,7 @@ pub fn solve<M: Model>(
     )?;
     let mut report = StageReport {
         name: "start",
+        parameter: "-",
         from: beta_m,
         to: beta_m,
         steps: usize::from(first.is_success()),
