@@ -525,8 +525,6 @@ struct Homotopy<'p, M: Model> {
     params: Vec<f64>,
     /// The current end state (`Ω_b⁰` before the constraint stage, then `Ω_b`).
     omega_b: Vec<f64>,
-    /// Whether the BVP imposes the start constraint (from the constraint stage on).
-    start_constraint: bool,
     /// The start constraint's level shift ([`LieBvp::level_shift`]).
     level_shift: f64,
     fixed_span: Option<f64>,
@@ -539,14 +537,16 @@ struct Homotopy<'p, M: Model> {
 }
 
 impl<M: Model> Homotopy<'_, M> {
+    /// The BVP of the current member with `params`; the start constraint is imposed exactly
+    /// when their constraint value does not vanish (as [`LieBvp::new`] decides).
     fn bvp_with(&self, params: Vec<f64>, fixed_span: Option<f64>) -> LieBvp<'_, M> {
         LieBvp {
+            start_constraint: !crate::model::constraint_value_vanishes::<M>(&params),
             params,
             omega_a: &self.problem.omega_a,
             omega_b: self.omega_b.clone(),
             t0: self.problem.t0,
             fixed_span,
-            start_constraint: self.start_constraint,
             level_shift: self.level_shift,
             desired: &*self.tracking,
             model: std::marker::PhantomData,
@@ -793,7 +793,6 @@ impl<M: Model> Homotopy<'_, M> {
         for c in M::CONSTRAINT_PARAMS {
             self.params[c.index] = target.params()[c.index];
         }
-        self.start_constraint = true;
         self.level_shift = gamma - level;
         self.solution.p = self
             .bvp_with(self.params.clone(), self.fixed_span)
@@ -983,7 +982,7 @@ pub fn solve<M: Model>(
         t0: base.t0,
         fixed_span: Some(t_p),
         desired: &*base.desired,
-        start_constraint: false,
+        start_constraint: !base.conserves_energy(), // false: base has no constraint value
         level_shift: 0.0,
         model: std::marker::PhantomData,
     };
@@ -1081,7 +1080,6 @@ pub fn solve<M: Model>(
         problem,
         params,
         omega_b: base.omega_b.clone(),
-        start_constraint: false,
         level_shift: 0.0,
         fixed_span: Some(t_p),
         t_span: t_p,
