@@ -2,7 +2,7 @@
 //!
 //! [`run_paper`] reproduces the paper's section 5.3: both cases are solved from the analytic
 //! singular solution through the staged homotopy, verified a posteriori
-//! ([`crate::suslov::diagnostics`]) and written to an output directory:
+//! ([`crate::lie::verify`]) and written to an output directory:
 //!
 //! ```text
 //! DIR/summary.json             one entry per case (see report::CaseSummary)
@@ -17,14 +17,14 @@
 //!
 //! [`run_certify`] solves the paper's cases (or one problem file) and certifies each
 //! solution as a local minimum of the discretized problem, or not
-//! ([`crate::suslov::certify`]).
+//! ([`crate::lie::certify`]).
 //!
 //! Every file is written atomically into an [`OutputDir`]: the directory is locked for the run,
 //! the previous run's files are removed first, `INCOMPLETE` marks it until `summary.json`,
 //! the last file, is complete. A case that fails writes what it has, marked: its summary
 //! status says `partial: <stage, parameter value, reason>` and its trajectory goes to
 //! `trajectory.partial.csv` (and `.npy`); a solution that fails its a-posteriori checks
-//! ([`crate::suslov::verify`]) has status `unverified: <checks>` and goes to
+//! ([`crate::lie::verify`]) has status `unverified: <checks>` and goes to
 //! `trajectory.unverified.csv` (and `.npy`). Figures are drawn for verified solutions only.
 
 use std::path::Path;
@@ -33,16 +33,16 @@ use std::time::Instant;
 pub mod lie;
 
 use crate::config::{self, ConfigError};
+use crate::lie::checks::Verdict;
 use crate::model::generated::{DIM, KAPPA, OMEGA, XI, XIDOT};
 use crate::report::{
     self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir,
     ReportError, StabilityRun, StageSummary, Summary, TrajectoryTable,
 };
-use crate::suslov::diagnostics::{diagnose, reintegrate_check};
 use crate::suslov::paper::{self, PaperCase};
 use crate::suslov::problem::SuslovProblem;
 use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
-use crate::suslov::verify::{Verdict, Verification};
+use crate::suslov::stability::{stability_runs, PERTURBATION};
 
 /// Points of the output grid (trajectory.csv and figures).
 pub const OUTPUT_POINTS: usize = 2001;
@@ -110,10 +110,6 @@ pub fn trajectory_table(sol: &SuslovSolution, points: usize) -> TrajectoryTable 
     table
 }
 
-fn stage_summaries(sol: &SuslovSolution) -> Vec<StageSummary> {
-    stage_summaries_of(&sol.stages)
-}
-
 /// The summary rows of homotopy stages (any model).
 fn stage_summaries_of(stages: &[solve::StageReport]) -> Vec<StageSummary> {
     stages
@@ -131,69 +127,24 @@ fn stage_summaries_of(stages: &[solve::StageReport]) -> Vec<StageSummary> {
         .collect()
 }
 
-/// Diagnose and verify `sol` and fill a case summary: status "converged" only if every
-/// check of [`crate::suslov::verify`] passes at the solution's requested tolerance,
-/// "unverified: …" otherwise (the caller overrides it for a partial result).
+/// The case summary of `sol` (the generic layer's summary, for any model: every check of
+/// [`crate::lie::verify`] at the solution's requested tolerance) with the so(3) extras: the
+/// start's energy deviation of the desired path and the paper's stability experiment
+/// ([`stability_runs`]).
 pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSummary {
-    let d = diagnose(sol);
-    let reintegration = reintegrate_check(sol);
-    let verification = Verification::new(
-        &d,
-        reintegration
-            .as_ref()
-            .map(|r| r.max_abs_diff)
-            .map_err(|e| e.to_string()),
-        sol.problem.omega_b.norm(),
-        sol.tolerance,
-    );
-    let status = CaseStatus::from(verification.verdict());
-    let mut c = CaseSummary {
-        name: name.to_string(),
-        eta: sol.problem.weights.eta,
-        terminal_time: d.terminal_time,
-        cost: d.cost,
-        max_abs_constraint: d.max_abs_constraint,
-        xi_norm_min: d.xi_norm_min,
-        xi_norm_max: d.xi_norm_max,
-        energy_drift: d.energy_drift,
-        omega_b_error: d.omega_b_error,
-        max_residual: d.max_residual,
-        mesh_nodes: sol.bvp.num_nodes(),
-        continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
-        newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
-        wall_seconds,
-        status: status.to_string(),
-        verification: Some((&verification).into()),
-        stages: stage_summaries(sol),
-        ..Default::default()
-    };
-    c.extra.insert(
-        "bc_residual".into(),
-        serde_json::json!(finite(d.bc_residual)),
-    );
-    c.extra.insert(
-        "max_relative_residual".into(),
-        serde_json::json!(finite(d.max_relative_residual)),
-    );
-    c.extra.insert(
-        "start".into(),
-        serde_json::json!({
-            "omega_p": sol.start.omega_p,
-            "paper_case": sol.start.case,
-            "b_p": sol.start.b_p,
-            "beta_m": sol.start.beta_m,
-            "desired_energy_deviation": finite(sol.start.desired_energy_deviation),
-        }),
-    );
-    match reintegration {
-        Ok(r) => {
-            c.reintegration_max_diff = Some(r.max_abs_diff);
-            c.stability = r
-                .stability
+    let (mut c, _) = lie::summarize(name, &sol.generic);
+    c.wall_seconds = wall_seconds;
+    if let Some(start) = c.extra.get_mut("start") {
+        start["desired_energy_deviation"] =
+            serde_json::json!(finite(sol.generic.start.desired_energy_deviation));
+    }
+    match stability_runs(sol) {
+        Ok(runs) => {
+            c.stability = runs
                 .iter()
                 .map(|(label, rep)| StabilityRun {
                     label: label.clone(),
-                    perturbation: 1e-3,
+                    perturbation: PERTURBATION,
                     max_omega_diff: rep.max_deviation,
                     max_xi_diff: rep.max_xi_deviation,
                     final_omega_diff: rep.final_deviation,
@@ -201,10 +152,8 @@ pub fn summarize(name: &str, sol: &SuslovSolution, wall_seconds: f64) -> CaseSum
                 .collect();
         }
         Err(e) => {
-            c.extra.insert(
-                "reintegration_error".into(),
-                serde_json::json!(e.to_string()),
-            );
+            c.extra
+                .insert("stability_error".into(), serde_json::json!(e.to_string()));
         }
     }
     c
@@ -274,7 +223,7 @@ fn write_case_outputs(
     opts.format = FigureFormat::Png;
     // When the optimal b is shorter than the start's b_p (the paper's η = 0.01 case: b = 9.84
     // < b_d = 10), draw Ω_d up to b_p with a marker at Ω_d(b), as the paper's figure does.
-    let (a, b, b_p) = (sol.problem.t0, sol.terminal_time(), sol.start.b_p);
+    let (a, b, b_p) = (sol.problem.t0, sol.terminal_time(), sol.generic.start.b_p);
     if b_p > b {
         let n = OUTPUT_POINTS;
         opts.desired_extended = Some(
@@ -550,7 +499,6 @@ pub fn run_certify(
     json: Option<&Path>,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
-    use crate::ocp::{NewtonOptions, SecondOrderOptions};
     prepare_certificate_json(json)?;
     let mut reports = Vec::new();
     for job in jobs {
@@ -563,26 +511,7 @@ pub fn run_certify(
             events(AppEvent::Solve(e))
         });
         let solve_seconds = clock.elapsed().as_secs_f64();
-        let mut report = match solved {
-            Err(e) => CertificateReport::error(&job.name, format!("the solve failed: {e}")),
-            Ok(sol) => {
-                let verification = crate::suslov::verify::verify_solution(&sol);
-                let clock = Instant::now();
-                let cert = crate::suslov::certify::certify(
-                    &sol,
-                    &NewtonOptions::default(),
-                    &SecondOrderOptions::default(),
-                );
-                let mut r = match cert {
-                    Ok(c) => CertificateReport::from_certificate(&job.name, &c),
-                    Err(e) => CertificateReport::error(&job.name, format!("certificate: {e}")),
-                };
-                r.certify_seconds = clock.elapsed().as_secs_f64();
-                r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
-                r
-            }
-        };
-        report.solve_seconds = solve_seconds;
+        let report = lie::certify_solved(&job.name, solved.map(|s| s.generic), solve_seconds);
         events(AppEvent::Certified(&report));
         reports.push(report);
     }
@@ -732,8 +661,9 @@ pub fn run_rank_along(
                 continue;
             }
         };
-        if let Verdict::Unverified { reason } =
-            crate::suslov::verify::verify_solution(&sol).verdict()
+        if let Verdict::Unverified { reason } = crate::lie::verify_solution(&sol.generic)
+            .verification
+            .verdict()
         {
             all_accessible = false;
             text += &format!(

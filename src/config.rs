@@ -147,13 +147,10 @@ pub const MAX_INITIAL_INTERVALS: usize = 10_000;
 /// paper's η = 1 and the segment example (Newton or mesh passes exhausted), 1e-12 converged
 /// on 2 of 4 examples, 1e-11 on all. Above 1e-3 the estimate stops being an error bound on
 /// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); and a solve is called
-/// converged only at a tolerance of at most [`crate::suslov::verify::TOL_MAX`] = 1e-4 (the
+/// converged only at a tolerance of at most [`crate::lie::checks::TOL_MAX`] = 1e-4 (the
 /// a-posteriori checks, README "What 'converged' means"), so the range ends there: a file
 /// that passes validation can converge. The paper uses 1e-8.
-pub const TOLERANCE_RANGE: (f64, f64) = (
-    crate::suslov::verify::TOL_MIN,
-    crate::suslov::verify::TOL_MAX,
-);
+pub const TOLERANCE_RANGE: (f64, f64) = (crate::lie::checks::TOL_MIN, crate::lie::checks::TOL_MAX);
 
 /// Allowed `solver.continuation_tolerance`: the same floor as [`TOLERANCE_RANGE`]; the
 /// continuation only has to follow the path, but at 1e-1 the paper's analytic start already

@@ -16,22 +16,22 @@
 //! - [`reconstruct`]: the group motion `ġ = g Ω̂` on any matrix Lie group (4th-order Magnus).
 //! - [`suslov`](mod@suslov): the problem layer (problem data and validation, desired paths with
 //!   exact derivatives, the analytic singular start, the staged homotopy of the paper's
-//!   section 5.2, diagnostics).
+//!   section 5.2, the paper's stability experiment).
 //! - [`report`]: outputs (CSV, JSON, figures, atomic writes); [`app`]: the command-line jobs.
 //!
 //! # Example: the paper's η = 0.01 case
 //!
 //! ```
-//! use suslov::suslov::diagnostics::diagnose;
+//! use suslov::lie::verify::diagnose;
 //! use suslov::{paper, solve, SolveOptions};
 //!
 //! let problem = paper::problem(0.01); // free terminal time, published b = 9.84
 //! let solution = solve(&problem, &SolveOptions::default(), &mut |_event| {})?;
 //! assert!((solution.terminal_time() - 9.84).abs() < 0.01);
-//! let checks = diagnose(&solution);
+//! let checks = diagnose(&solution.generic);
 //! assert!(checks.max_abs_constraint < 1e-9); // ⟨Ω, ξ⟩ = 0 on a fine grid
 //! // "Converged" means every a-posteriori check passed at the requested tolerance:
-//! assert!(suslov::suslov::verify::verify_solution(&solution).passed());
+//! assert!(suslov::lie::verify_solution(&solution.generic).verification.passed());
 //! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5, in the generated layout
 //! assert_eq!(y.len(), suslov::model::generated::N_STATE);
 //! let omega = &y[suslov::model::generated::OMEGA];

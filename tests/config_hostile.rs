@@ -521,9 +521,10 @@ fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start(
     let clock = Instant::now();
     let sol = suslov::suslov::solve::solve(&p.problem, &p.options, &mut |_| {}).unwrap();
     assert!(clock.elapsed() < Duration::from_secs(20));
-    assert_eq!(sol.start.case, 1);
-    let end =
-        nalgebra::Vector3::from_column_slice(&sol.bvp.eval(1.0)[suslov::model::generated::OMEGA]);
+    assert_eq!(sol.generic.start.case, 1);
+    let end = nalgebra::Vector3::from_column_slice(
+        &sol.generic.bvp.eval(1.0)[suslov::model::generated::OMEGA],
+    );
     assert!((end - off).norm() < 1e-8, "{end}");
 }
 
@@ -550,7 +551,7 @@ fn a_problem_built_in_code_with_omega_b_within_the_tolerance_builds_the_segment_
     };
     problem.validate().unwrap();
     let sol = suslov::suslov::solve::solve(&problem, &Default::default(), &mut |_| {}).unwrap();
-    assert_eq!(sol.start.omega_p, "projected segment");
+    assert_eq!(sol.generic.start.omega_p, "projected segment");
 }
 
 // ---------------------------------------------------------------------------------------

@@ -166,14 +166,14 @@ fn generic_outcome<M: Model>(problem: &Problem<M>) -> Outcome {
 fn so3_outcome(problem: &SuslovProblem) -> Outcome {
     match solve::solve(problem, &SolveOptions::default(), &mut |_| {}) {
         Ok(sol) => {
-            let v = suslov::suslov::verify::verify_solution(&sol);
-            if v.passed() {
+            let v = lie::verify_solution(&sol.generic);
+            if v.verification.passed() {
                 Outcome::Converged {
                     b: sol.terminal_time(),
-                    cost: suslov::suslov::diagnostics::diagnose(&sol).cost,
+                    cost: v.diagnostics.cost,
                 }
             } else {
-                Outcome::Unverified(format!("{:?}", v.verdict()))
+                Outcome::Unverified(format!("{:?}", v.verification.verdict()))
             }
         }
         Err(SolveError::StageFailed { stage, reason, .. }) => {

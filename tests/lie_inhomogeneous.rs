@@ -217,7 +217,7 @@ fn with_c_zero_the_model_reproduces_the_paper() {
     let with_mu = lie::solve(&paper_problem::<Inh>(1.0), &opts, &mut |_| {}).unwrap();
     assert!(with_mu.problem.conserves_energy());
     let (b0, b1) = (plain.terminal_time(), with_mu.terminal_time());
-    let cost = |d: &suslov::suslov::diagnostics::Diagnostics| d.cost;
+    let cost = |d: &suslov::lie::checks::Diagnostics| d.cost;
     let (j0, j1) = (
         cost(&lie::verify::diagnose(&plain)),
         cost(&lie::verify::diagnose(&with_mu)),

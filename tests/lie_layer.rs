@@ -277,39 +277,33 @@ fn bad_model_files_get_messages_that_name_the_field_and_the_fix() {
     }
 }
 
+/// The certificate of the paper's η = 1 case as the so(3) layer's own certificate recorded it
+/// (README, "Local minimum or not": 377 intervals, KKT inertia (+10189, −6792, 0), μ_min in
+/// [0.0493, 0.0493]); the generic certificate was checked equal to it (margin to 1e-6
+/// relative, the same inertia) before the so(3) copy was removed.
 #[test]
-fn the_generic_certificate_equals_the_so3_layers_on_the_paper() {
+fn the_paper_certificate_is_the_recorded_one() {
     use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
     let (newton, opts) = (NewtonOptions::default(), SecondOrderOptions::default());
-    let so3 =
-        suslov::suslov::solve::solve(&paper::problem(1.0), &SolveOptions::default(), &mut |_| {})
-            .unwrap();
-    let reference = suslov::suslov::certify::certify(&so3, &newton, &opts).unwrap();
     let sol = lie::solve(&paper_generic(1.0), &SolveOptions::default(), &mut |_| {}).unwrap();
     let cert = lie::certify::certify(&sol, &newton, &opts).unwrap();
     assert_eq!(cert.verdict(), Verdict::Certified);
-    assert_eq!(cert.verdict(), reference.verdict());
-    let (a, b) = (
-        &cert.certificate.second_order,
-        &reference.certificate.second_order,
-    );
-    assert_eq!((a.n_var, a.n_con), (b.n_var, b.n_con));
+    assert_eq!(cert.intervals, 377);
+    let so = &cert.certificate.second_order;
     assert_eq!(
-        (a.inertia.positive, a.inertia.negative, a.inertia.zero),
-        (b.inertia.positive, b.inertia.negative, b.inertia.zero)
+        (so.inertia.positive, so.inertia.negative, so.inertia.zero),
+        (10189, 6792, 0)
     );
-    let (lo_a, _) = a.margin.unwrap();
-    let (lo_b, _) = b.margin.unwrap();
+    let (lo, hi) = so.margin.unwrap();
     assert!(
-        (lo_a - lo_b).abs() <= 1e-6 * lo_b,
-        "margin {lo_a} vs {lo_b}"
+        (0.04925..=0.04935).contains(&lo) && (0.04925..=0.04935).contains(&hi),
+        "margin [{lo}, {hi}]"
     );
-    assert!((cert.cost - reference.cost).abs() <= 1e-9 * reference.cost.abs());
-    assert!(cert.costate_mismatch < 1e-3, "{}", cert.costate_mismatch);
+    assert!(cert.costate_mismatch < 1e-5, "{}", cert.costate_mismatch);
 }
 
 /// Solve and certify the example `file` of model `M` with the generic layer.
-fn certify_example<M: Model>(file: &str) -> suslov::suslov::certify::SuslovCertificate {
+fn certify_example<M: Model>(file: &str) -> suslov::lie::certify::SuslovCertificate {
     use suslov::config::{load_any, Loaded};
     use suslov::ocp::{NewtonOptions, SecondOrderOptions};
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -489,10 +483,10 @@ fn a_sampled_desired_path_of_another_model_loads_projected_and_checked() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-/// Every so(3) example file, solved by the so(3) layer and by the generic layer
-/// (`SuslovProblem::to_generic`, the desired path shared through `AsLiePath`): the same
-/// verdict, and b and J to 1e-9 relative where both converge. The gate for routing so(3)
-/// through the generic layer.
+/// Every so(3) example file, solved through the so(3) layer's entry (`suslov::solve`: its
+/// validation, `SuslovProblem::to_generic`, the desired path shared through `AsLiePath`, the
+/// so(3) view of the result) and by the generic layer directly: the same verdict, and b and J
+/// to 1e-9 relative.
 #[test]
 fn every_so3_example_solves_the_same_in_both_layers() {
     use suslov::config::{load_any, Loaded};
@@ -520,16 +514,16 @@ fn every_so3_example_solves_the_same_in_both_layers() {
                 b.err().map(|e| e.to_string())
             ),
         };
-        let v_old = suslov::suslov::verify::verify_solution(&old);
+        let v_old = lie::verify_solution(&old.generic);
         let v_new = lie::verify_solution(&new);
         assert_eq!(
-            v_old.passed(),
+            v_old.verification.passed(),
             v_new.verification.passed(),
             "{}",
             path.display()
         );
         let (b0, b1) = (old.terminal_time(), new.terminal_time());
-        let j0 = suslov::suslov::diagnostics::diagnose(&old).cost;
+        let j0 = v_old.diagnostics.cost;
         let j1 = v_new.diagnostics.cost;
         eprintln!("{}: b {b0} vs {b1}, J {j0} vs {j1}", path.display());
         assert!((b0 - b1).abs() <= 1e-9 * b0.abs(), "{}: b", path.display());

@@ -166,7 +166,8 @@ fn no_hand_typed_layout_in_the_model_specific_code() {
     for expected in [
         "src/suslov/problem.rs",
         "src/suslov/solve.rs",
-        "src/suslov/certify.rs",
+        "src/suslov/stability.rs",
+        "src/lie/certify.rs",
         "src/app.rs",
         "src/report/csv.rs",
         "src/config.rs",

@@ -1,4 +1,4 @@
-//! The second-order certificate on Suslov's problem (`suslov::suslov::certify`,
+//! The second-order certificate on Suslov's problem (`suslov::lie::certify`, model so3,
 //! `suslov certify`): the paper's extremals are certified local minima of the discretized
 //! problem, on their own meshes; a fixed-time case too; the discrete multipliers are the
 //! costates from κ; and on a too-coarse mesh the certificate says no (checked against a
@@ -8,9 +8,9 @@ use std::path::Path;
 
 mod ocpkit;
 
+use suslov::lie::certify::{certify, SuslovCertificate};
 use suslov::model::generated as g;
 use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
-use suslov::suslov::certify::{certify, SuslovCertificate};
 use suslov::{paper, solve, SolveOptions, SuslovProblem};
 
 fn certified(problem: &SuslovProblem, tol: f64) -> SuslovCertificate {
@@ -20,7 +20,7 @@ fn certified(problem: &SuslovProblem, tol: f64) -> SuslovCertificate {
     };
     let sol = solve(problem, &opts, &mut |_| {}).expect("the solve converges");
     let cert = certify(
-        &sol,
+        &sol.generic,
         &NewtonOptions::default(),
         &SecondOrderOptions::default(),
     )
@@ -165,9 +165,9 @@ fn certify_job_writes_json_and_says_the_verdict() {
 /// ZᵀHZ in the metric M at the same KKT point.
 #[test]
 fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
+    use suslov::lie::certify::{transcription, LieOcp};
     use suslov::ocp::certify::second_order;
     use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
-    use suslov::suslov::certify::{transcription, SuslovOcp};
 
     let problem = paper::problem(1.0);
     let opts = SolveOptions {
@@ -175,16 +175,21 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
         ..Default::default()
     };
     let sol = solve(&problem, &opts, &mut |_| {}).expect("solves");
-    let ocp = SuslovOcp::new(&sol.problem);
-    let tr = transcription(&ocp, &sol).expect("transcription");
+    let ocp = LieOcp::new(&sol.generic);
+    let tr = transcription(&ocp, &sol.generic).expect("transcription");
     let mut v0: Vec<f64> = Vec::new();
-    for y in sol.bvp.collocation_values().chunks_exact(g::N_STATE) {
+    for y in sol
+        .generic
+        .bvp
+        .collocation_values()
+        .chunks_exact(g::N_STATE)
+    {
         // z = [Omega, xi, xi'] of y = [Omega, xi, xi', kappa].
         for block in [g::OMEGA, g::XI, g::XIDOT] {
             v0.extend_from_slice(&y[block]);
         }
     }
-    v0.push(sol.t_span);
+    v0.push(sol.generic.t_span);
     let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
     let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
     let (pt, _) = kkt::newton(

@@ -157,12 +157,12 @@ fn gamma_zero_starts_from_a_nominal_path_whatever_the_desired_path() {
     p.weights.gamma = 0.0;
     p.weights.delta = 0.0;
     let sol = suslov::solve(&p, &Default::default(), &mut |_| {}).unwrap_or_else(|e| panic!("{e}"));
-    assert_eq!(sol.start.case, 1);
-    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert_eq!(sol.generic.start.case, 1);
+    let names: Vec<&str> = sol.generic.stages.iter().map(|s| s.name).collect();
     assert_eq!(names, ["start", "gamma", "beta", "polish"]);
     let y = sol.state(5.0);
     assert!((Vector3::new(y[0], y[1], y[2]) - p.omega_b).norm() < 1e-8);
-    let d = suslov::suslov::diagnostics::diagnose(&sol);
+    let d = suslov::lie::verify::diagnose(&sol.generic);
     assert!(
         // kinetic energy T(a) = 12.5: a drift of 1e-8 relative to it
         d.max_abs_constraint < 1e-9 && d.energy_drift < 1e-8 * 12.5,
@@ -232,7 +232,10 @@ fn the_start_case_can_be_overridden() {
         };
         match suslov::solve(&problem, &options, &mut |_| {}) {
             Ok(sol) => {
-                assert_eq!((sol.start.case, sol.start.omega_p), (case, omega_p));
+                assert_eq!(
+                    (sol.generic.start.case, sol.generic.start.omega_p),
+                    (case, omega_p)
+                );
                 assert!((sol.terminal_time() - 9.84).abs() < 0.01);
             }
             Err(SolveError::Start(msg)) => {

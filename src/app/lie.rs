@@ -18,14 +18,14 @@ use std::path::Path;
 use std::time::Instant;
 
 use crate::config::{generic::LoadedModelProblem, ModelFile};
+use crate::lie::checks::Verdict;
 use crate::lie::{self, LieSolution, LieSolveError};
 use crate::model::{Model, ParamMeta};
 use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
 use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
 use crate::suslov::controllability::{AccessibilityVerdict, RANK_RTOL};
-use crate::suslov::verify::Verdict;
 
-use super::{finish, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
+use super::{finish, finite, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
 
 /// Heading ticks drawn along the planar path (`path.png`).
 const PATH_HEADINGS: usize = 25;
@@ -172,17 +172,19 @@ fn motion<M: Model>(sol: &LieSolution<M>, points: usize) -> Result<Option<Motion
     }))
 }
 
-fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) {
+/// Diagnose and verify `sol` ([`lie::verify_solution`]) and fill a case summary (any model):
+/// status "converged" only if every check passes at the solution's requested tolerance,
+/// "unverified: …" otherwise (the caller overrides it for a partial result); with the
+/// problem's constants, end states, start and stages, and the accessibility rank along the
+/// solution. Returns whether the checks passed.
+pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) {
     let lie::verify::Verified {
         diagnostics: d,
         reintegration,
         verification,
     } = lie::verify_solution(sol);
     let verified = verification.passed();
-    let status = match verification.verdict() {
-        Verdict::Verified => CaseStatus::Converged,
-        Verdict::Unverified { reason } => CaseStatus::Unverified(reason),
-    };
+    let status = CaseStatus::from(verification.verdict());
     let eta = M::WEIGHTS
         .iter()
         .find(|w| w.role == crate::model::HomotopyRole::Smoothing)
@@ -222,8 +224,18 @@ fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSummary, bool) 
         .insert("omega_a".into(), serde_json::json!(sol.problem.omega_a));
     c.extra
         .insert("omega_b".into(), serde_json::json!(sol.problem.omega_b));
-    c.extra
-        .insert("bc_residual".into(), serde_json::json!(d.bc_residual));
+    c.extra.insert(
+        "bc_residual".into(),
+        serde_json::json!(finite(d.bc_residual)),
+    );
+    c.extra.insert(
+        "max_relative_residual".into(),
+        serde_json::json!(finite(d.max_relative_residual)),
+    );
+    if let Err(e) = &reintegration {
+        c.extra
+            .insert("reintegration_error".into(), serde_json::json!(e));
+    }
     c.extra.insert(
         "energy".into(),
         serde_json::json!(if sol.problem.conserves_energy() {
@@ -387,6 +399,38 @@ pub fn run_model_solve<M: Model>(
     Ok(summary)
 }
 
+/// The certificate report of one solve (any model): the solve's error, or the solution
+/// verified and certified on its own mesh ([`crate::lie::certify`]), with both times.
+pub(super) fn certify_solved<M: Model>(
+    name: &str,
+    solved: Result<LieSolution<M>, impl std::fmt::Display>,
+    solve_seconds: f64,
+) -> report::CertificateReport {
+    use crate::ocp::{NewtonOptions, SecondOrderOptions};
+    use report::CertificateReport;
+    let mut report = match solved {
+        Err(e) => CertificateReport::error(name, format!("the solve failed: {e}")),
+        Ok(sol) => {
+            let verification = lie::verify_solution(&sol).verification;
+            let clock = Instant::now();
+            let cert = lie::certify::certify(
+                &sol,
+                &NewtonOptions::default(),
+                &SecondOrderOptions::default(),
+            );
+            let mut r = match cert {
+                Ok(c) => CertificateReport::from_certificate(name, &c),
+                Err(e) => CertificateReport::error(name, format!("certificate: {e}")),
+            };
+            r.certify_seconds = clock.elapsed().as_secs_f64();
+            r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
+            r
+        }
+    };
+    report.solve_seconds = solve_seconds;
+    report
+}
+
 /// `suslov certify FILE` for a [`ModelFile`] of model `M`: solve, verify, certify on the
 /// solution's own mesh ([`crate::lie::certify`]); the report as for so(3).
 pub fn run_model_certify<M: Model>(
@@ -395,8 +439,6 @@ pub fn run_model_certify<M: Model>(
     json: Option<&Path>,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<report::CertificateReport>, AppError> {
-    use crate::ocp::{NewtonOptions, SecondOrderOptions};
-    use report::CertificateReport;
     super::prepare_certificate_json(json)?;
     let LoadedModelProblem {
         name,
@@ -410,26 +452,7 @@ pub fn run_model_certify<M: Model>(
     let clock = Instant::now();
     let solved = lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e)));
     let solve_seconds = clock.elapsed().as_secs_f64();
-    let mut report = match solved {
-        Err(e) => CertificateReport::error(&name, format!("the solve failed: {e}")),
-        Ok(sol) => {
-            let verification = lie::verify_solution(&sol).verification;
-            let clock = Instant::now();
-            let cert = lie::certify::certify(
-                &sol,
-                &NewtonOptions::default(),
-                &SecondOrderOptions::default(),
-            );
-            let mut r = match cert {
-                Ok(c) => CertificateReport::from_certificate(&name, &c),
-                Err(e) => CertificateReport::error(&name, format!("certificate: {e}")),
-            };
-            r.certify_seconds = clock.elapsed().as_secs_f64();
-            r.solution_status = Some(CaseStatus::from(verification.verdict()).to_string());
-            r
-        }
-    };
-    report.solve_seconds = solve_seconds;
+    let report = certify_solved(&name, solved, solve_seconds);
     events(AppEvent::Certified(&report));
     let reports = vec![report];
     super::write_certificate_json(json, &reports, events)?;

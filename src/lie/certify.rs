@@ -1,12 +1,58 @@
-//! The second-order certificate of a [`LieSolution`] of any model (a local minimum of the
-//! discretized problem, or not): the method of the so(3) layer ([`crate::suslov::certify`],
-//! whose module docs give the mathematics), written once for every model.
+//! Second-order certificate of a computed solution of any model (a local minimum of the
+//! discretized problem, or not).
 //!
-//! The direct problem in classical form: state `x = [Ω, ξ]` (`2n`), control `u = ξ̇` (`n`),
-//! dynamics and running cost with their derivatives to second order from the model's
-//! generated `direct_dynamics`, `direct_cost`, `direct_hessian`; transcribed on the solution's
-//! own mesh ([`crate::ocp::Transcription`]); KKT by Newton from the indirect solution; the
-//! inertia of the KKT matrix decides ([`crate::ocp::certify()`]).
+//! The paper could only argue that its extremals are minima by re-solving them with direct
+//! methods, and left the second-order sufficient conditions for future work. Here the
+//! argument is made exact for the discretized problem:
+//!
+//! 1. **The direct problem.** The optimal control problem in classical form ([`LieOcp`]):
+//!    state `x = [Ω, ξ]` (`2n`), control `u = ξ̇` (`n`), dynamics `Ω̇ = F(Ω, ξ, ξ̇)`, `ξ̇ = u`,
+//!    running cost `C(Ω, F, ξ, ξ̇, Ω_d(t))`, `Ω(a) = Ω_a`, `Ω(b) = Ω_b`, `ξ` free at both ends
+//!    (for a nonzero constraint value, the linear start condition `⟨Ω_a, ξ(a)⟩ = γ`), `b`
+//!    fixed or free. All derivatives, to second order, are generated from the model file
+//!    (`direct_dynamics`, `direct_cost`, `direct_hessian`).
+//! 2. **Transcription on the solution's own mesh** with the solver's collocation (4-stage
+//!    Lobatto IIIA; [`crate::ocp::transcription`]).
+//! 3. **KKT.** The indirect solution, sampled at the collocation points, with least-squares
+//!    multipliers: its KKT residual measures how far it is from a KKT point of the
+//!    discretized problem (discretization error: the indirect and direct discretizations are
+//!    different). Newton's method on the KKT system moves it to the exact KKT point nearby;
+//!    the displacement is reported. The discrete multipliers, read as costates
+//!    (`λ_p/ω_p`), are compared with the classical costates `π` computed from the solution's
+//!    `κ` (`classical_costates`): the multipliers *are* κ, up to discretization error.
+//! 4. **Second order** ([`mod@crate::ocp::certify`]): the inertia of the KKT matrix decides
+//!    whether the reduced Hessian is positive definite; bisection gives its smallest
+//!    eigenvalue in the `∫|δξ̇|² dt + |δξ(a)|² (+ δb²)` metric.
+//!
+//! # Example
+//!
+//! ```
+//! use std::sync::Arc;
+//! use nalgebra::Vector3;
+//! use suslov::lie::certify::certify;
+//! use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
+//! use suslov::suslov::{EnergyEllipsoid, Inertia, ProjectedSegment};
+//! use suslov::{solve, CostWeights, SolveOptions, SuslovProblem, TerminalTime};
+//!
+//! let inertia = Inertia::new([1.0, 2.0, 3.0])?;
+//! let omega_a = Vector3::new(3.0, 0.0, 0.0);
+//! let omega_b = EnergyEllipsoid::through(inertia, &omega_a)?.project(&Vector3::new(1.0, 2.0, 0.0))?;
+//! let problem = SuslovProblem {
+//!     inertia,
+//!     weights: CostWeights { alpha: 1.0, beta: 0.1, gamma: 1.0, eta: 0.1, delta: 0.0 },
+//!     t0: 0.0,
+//!     omega_a,
+//!     omega_b,
+//!     terminal: TerminalTime::Fixed(4.0),
+//!     desired: Arc::new(ProjectedSegment::new(inertia, omega_a, omega_b, 0.0, 4.0)?),
+//! };
+//! let solution = solve(&problem, &SolveOptions::default(), &mut |_| {})?;
+//! let cert = certify(&solution.generic, &NewtonOptions::default(), &SecondOrderOptions::default())?;
+//! assert_eq!(cert.verdict(), Verdict::Certified);
+//! let (low, _high) = cert.certificate.second_order.margin.expect("bracketed");
+//! assert!(low > 0.0); // δ²L ≥ low · ‖δ‖²_M on the linearized constraints
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
 
 use std::marker::PhantomData;
 
@@ -206,7 +252,7 @@ pub fn transcription<'a, M: Model>(
     Transcription::new(ocp_problem, boundary, horizon, mesh)
 }
 
-/// Certify `sol` (see the module docs and [`crate::suslov::certify::certify`]).
+/// Certify `sol` on its own mesh (see the module docs).
 pub fn certify<M: Model>(
     sol: &LieSolution<M>,
     newton: &NewtonOptions,

@@ -144,7 +144,7 @@ impl From<crate::lie::checks::Verdict> for CaseStatus {
     }
 }
 
-/// The a-posteriori checks of a case (`crate::suslov::verify::Verification` as data).
+/// The a-posteriori checks of a case (`crate::lie::checks::Verification` as data).
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct VerificationSummary {
     /// The requested tolerance.
@@ -180,8 +180,8 @@ pub struct CheckSummary {
     pub error: Option<String>,
 }
 
-impl From<&crate::suslov::verify::Verification> for VerificationSummary {
-    fn from(v: &crate::suslov::verify::Verification) -> Self {
+impl From<&crate::lie::checks::Verification> for VerificationSummary {
+    fn from(v: &crate::lie::checks::Verification) -> Self {
         Self {
             tolerance: v.tolerance,
             effective_tolerance: v.effective_tolerance,

@@ -1,13 +1,13 @@
 //! The Suslov problem layer (so(3), the paper): the energy ellipsoid, desired trajectories
 //! with exact derivatives (the paper's spiral among them), the paper's Properties 1–3, the
-//! analytic singular solution, the a-posteriori re-integration of the pure Suslov equations
-//! with the paper's stability experiment, and the outputs' view of a solution
+//! analytic singular solution, the re-integration of the pure Suslov equations with the
+//! paper's stability experiment ([`stability`]), and the outputs' view of a solution
 //! ([`SuslovSolution`](solve::SuslovSolution)).
 //!
-//! Solving is the generic layer's ([`crate::lie`], model `so3`): [`solve::solve`] hands the
-//! problem over ([`problem::SuslovProblem::to_generic`]) and converts the result. What remains
-//! here that the generic layer also has (diagnostics, verification glue, certificate glue,
-//! controllability report, Properties 1–3) is the next to go.
+//! Solving, the a-posteriori checks and the certificate are the generic layer's
+//! ([`crate::lie`], model `so3`): [`solve::solve`] hands the problem over
+//! ([`problem::SuslovProblem::to_generic`]) and a [`SuslovSolution`](solve::SuslovSolution)
+//! holds the generic solution with the so(3) view of its problem.
 //!
 //! Paper: Putkaradze & Rogers, *Constraint control of nonholonomic mechanical systems*,
 //! section 5 (5.1 analytic singular solution, 5.3 the desired trajectory).
@@ -43,10 +43,8 @@
 //! - `ProjectedSegment` is the paper's nominal `Ω_p` for `γ = 0` (section 5.2); it also meets
 //!   P1–P3 (min `|ξ̃|` = 0.64).
 
-pub mod certify;
 pub mod controllability;
 pub mod desired;
-pub mod diagnostics;
 pub mod ellipsoid;
 pub mod equations;
 pub mod layout;
@@ -56,7 +54,7 @@ pub mod properties;
 pub mod reintegrate;
 pub mod singular;
 pub mod solve;
-pub mod verify;
+pub mod stability;
 
 pub use desired::{
     Constant, DesiredPath, Jet, PaperSpiral, PathEval, Projected, ProjectedPath, ProjectedSegment,

@@ -1,29 +1,18 @@
-//! Suslov's optimal control problem as data ([`SuslovProblem`]), its validation, and its
-//! two-point BVP on normalized time ([`SuslovBvp`]), which joins the generated model to the
-//! generic solver in [`crate::bvp`].
+//! Suslov's optimal control problem as data ([`SuslovProblem`]) and its validation; solving
+//! hands it to the generic layer as a problem of model `so3` ([`SuslovProblem::to_generic`]),
+//! whose BVP ([`crate::lie::LieBvp`]) joins the generated model to the solver in
+//! [`crate::bvp`].
 //!
-//! The BVP (paper eqs. `p_sys_explicit`, `p_lbc`, `p_rbc`), on `s ∈ [0, 1]`, `t = a + sT`:
-//!
-//! ```text
-//! dy/ds = T f(y, Ω_d(a + sT)),       y = [Ω, ξ, ξ̇, κ] ∈ R^N_STATE (R¹² on so(3))
-//! Ω(0) = Ω_a,  p_ξ(0) = ⟨κ,ξ⟩Ω + βξ̇ = 0        (N_BC_ENDPOINT = 6 conditions at a)
-//! Ω(1) = Ω_b,  p_ξ(1) = 0                        (N_BC_ENDPOINT = 6 conditions at b)
-//! C − ⟨p_Ω, Ω̇⟩ = 0 at b                          (free terminal time only; T unknown)
-//! ```
-//!
-//! Every size, block and index is the generated model's (`N_STATE`, `OMEGA`, …, `idx::*`).
+//! The constants' layout is the generated model's (`PARAM_NAMES`, `INERTIA_PARAMS`).
 
-use std::ops::Range;
 use std::sync::Arc;
 
 use nalgebra::Vector3;
 
-use crate::bvp::BvpProblem;
-use crate::model::generated::{self as g, idx, DIM, N_BC_ENDPOINT, N_DESIRED, N_PARAM, N_STATE};
+use crate::model::generated::{self as g, idx, N_PARAM};
 
 use super::desired::DesiredPath;
 use super::ellipsoid::{EnergyEllipsoid, Inertia};
-use super::layout::as_state;
 
 /// The weights of the cost integrand
 /// `C = α/4 (|ξ|² − 1)² + β/2 |ξ̇|² + γ/2 |Ω − Ω_d|² + η/2 |Ω̇|² + δ` (paper eq. `cost_function`).
@@ -337,161 +326,6 @@ impl SuslovProblem {
             });
         }
         Ok(())
-    }
-}
-
-/// Index of `T = b − a` among the BVP's unknown parameters (free terminal time only).
-pub const SPAN: usize = 0;
-
-/// Rows of the boundary conditions at `a` (the generated `bc_endpoint` at `Ω_a`).
-const BC_LEFT: Range<usize> = 0..N_BC_ENDPOINT;
-/// Rows of the boundary conditions at `b` (the generated `bc_endpoint` at `Ω_b`).
-const BC_RIGHT: Range<usize> = N_BC_ENDPOINT..2 * N_BC_ENDPOINT;
-/// Row of the free-time condition (after both ends' conditions).
-const BC_FREE_TIME: usize = 2 * N_BC_ENDPOINT;
-
-// The BVP is square: `N_STATE` conditions at the two ends, one more for the unknown `T`; `w`
-// is `[Ω_d, Ω̇_d]`.
-const _: () = assert!(BC_FREE_TIME == N_STATE && N_DESIRED == 2 * DIM);
-
-/// The Suslov BVP on normalized time `s ∈ [0, 1]`, for given constants (which continuation
-/// changes) and a fixed or unknown `T = b − a` (the BVP's one parameter when free).
-pub struct SuslovBvp<'a> {
-    /// The generated model's constants `p` (layout `PARAM_NAMES`).
-    pub params: [f64; N_PARAM],
-    /// `Ω(a)`.
-    pub omega_a: [f64; DIM],
-    /// `Ω(b)`.
-    pub omega_b: [f64; DIM],
-    /// `a`.
-    pub t0: f64,
-    /// `Some(T)` for a fixed terminal time, `None` when `T` is the unknown parameter.
-    pub fixed_span: Option<f64>,
-    /// `Ω_d`.
-    pub desired: &'a dyn DesiredPath,
-}
-
-impl<'a> SuslovBvp<'a> {
-    /// The BVP of `problem` with its own weights and terminal-time mode.
-    pub fn new(problem: &'a SuslovProblem) -> Self {
-        let fixed_span = match problem.terminal {
-            TerminalTime::Fixed(b) => Some(b - problem.t0),
-            TerminalTime::Free { .. } => None,
-        };
-        Self {
-            params: problem.params(),
-            omega_a: problem.omega_a.into(),
-            omega_b: problem.omega_b.into(),
-            t0: problem.t0,
-            fixed_span,
-            desired: &*problem.desired,
-        }
-    }
-
-    fn span(&self, p: &[f64]) -> f64 {
-        self.fixed_span.unwrap_or_else(|| p[SPAN])
-    }
-
-    /// `w = [Ω_d(t), Ω̇_d(t)]`.
-    pub fn desired_at(&self, t: f64) -> [f64; N_DESIRED] {
-        let jet = self.desired.jet(t);
-        let mut w = [0.0; N_DESIRED];
-        let (value, rate) = w.split_at_mut(DIM);
-        value.copy_from_slice(jet.value.as_slice());
-        rate.copy_from_slice(jet.d1.as_slice());
-        w
-    }
-}
-
-impl BvpProblem for SuslovBvp<'_> {
-    fn n(&self) -> usize {
-        N_STATE
-    }
-
-    fn k(&self) -> usize {
-        usize::from(self.fixed_span.is_none())
-    }
-
-    fn f(&self, s: f64, y: &[f64], p: &[f64], dy: &mut [f64]) {
-        let t_span = self.span(p);
-        let w = self.desired_at(self.t0 + s * t_span);
-        let out: &mut [f64; N_STATE] = dy.try_into().expect("n = N_STATE");
-        g::ode_rhs_scaled(as_state(y), &self.params, &w, t_span, out);
-    }
-
-    fn jac(&self, s: f64, y: &[f64], p: &[f64], dfdy: &mut [f64], dfdp: &mut [f64]) -> bool {
-        let t_span = self.span(p);
-        let w = self.desired_at(self.t0 + s * t_span);
-        let mut dgdy = [[0.0; N_STATE]; N_STATE];
-        let mut dgdt = [0.0; N_STATE];
-        g::ode_jac_scaled(
-            as_state(y),
-            &self.params,
-            &w,
-            t_span,
-            s,
-            &mut dgdy,
-            &mut dgdt,
-        );
-        for (row, out) in dgdy.iter().zip(dfdy.chunks_exact_mut(N_STATE)) {
-            out.copy_from_slice(row);
-        }
-        if self.fixed_span.is_none() {
-            dfdp.copy_from_slice(&dgdt);
-        }
-        true
-    }
-
-    fn bc(&self, ya: &[f64], yb: &[f64], p: &[f64], res: &mut [f64]) {
-        let mut left = [0.0; N_BC_ENDPOINT];
-        let mut right = [0.0; N_BC_ENDPOINT];
-        g::bc_endpoint(as_state(ya), &self.params, &self.omega_a, &mut left);
-        g::bc_endpoint(as_state(yb), &self.params, &self.omega_b, &mut right);
-        res[BC_LEFT].copy_from_slice(&left);
-        res[BC_RIGHT].copy_from_slice(&right);
-        if self.fixed_span.is_none() {
-            let wb = self.desired_at(self.t0 + p[SPAN]);
-            res[BC_FREE_TIME] = g::free_time_condition(as_state(yb), &self.params, &wb);
-        }
-    }
-
-    fn bc_jac(
-        &self,
-        ya: &[f64],
-        yb: &[f64],
-        p: &[f64],
-        dya: &mut [f64],
-        dyb: &mut [f64],
-        dp: &mut [f64],
-    ) -> bool {
-        dya.fill(0.0);
-        dyb.fill(0.0);
-        dp.fill(0.0);
-        // Row-major: row i of the conditions is `d[i * N_STATE..(i + 1) * N_STATE]`.
-        let mut d = [[0.0; N_STATE]; N_BC_ENDPOINT];
-        g::bc_endpoint_jac(as_state(ya), &self.params, &self.omega_a, &mut d);
-        for (row, out) in d
-            .iter()
-            .zip(dya.chunks_exact_mut(N_STATE).skip(BC_LEFT.start))
-        {
-            out.copy_from_slice(row);
-        }
-        g::bc_endpoint_jac(as_state(yb), &self.params, &self.omega_b, &mut d);
-        for (row, out) in d
-            .iter()
-            .zip(dyb.chunks_exact_mut(N_STATE).skip(BC_RIGHT.start))
-        {
-            out.copy_from_slice(row);
-        }
-        if self.fixed_span.is_none() {
-            let wb = self.desired_at(self.t0 + p[SPAN]);
-            let mut d_y = [0.0; N_STATE];
-            // `dp` is (n + k) x k with k = 1: the entry of row BC_FREE_TIME, column SPAN.
-            dp[BC_FREE_TIME * self.k() + SPAN] =
-                g::free_time_condition_jac(as_state(yb), &self.params, &wb, &mut d_y);
-            dyb[BC_FREE_TIME * N_STATE..(BC_FREE_TIME + 1) * N_STATE].copy_from_slice(&d_y);
-        }
-        true
     }
 }
 

@@ -8,42 +8,34 @@
 //! verdict and `b`, `J` to 1e-15 relative (`every_so3_example_solves_the_same_in_both_layers`
 //! in `tests/lie_layer.rs`), and this module now only converts.
 
-use crate::bvp::{self, Solution};
+use crate::bvp;
 use crate::lie::{self, LieSolution, LieSolveError};
 use crate::model::generated::{So3, N_STATE};
 
 use super::problem::{CostWeights, ProblemError, SuslovProblem};
 
-/// A solved Suslov problem.
+/// A solved Suslov problem: the generic layer's solution ([`LieSolution`], model `so3`) with
+/// the so(3) view of its problem (the inertia, the weights reached, the desired path as a
+/// [`super::DesiredPath`]) that the so(3) outputs use.
 #[derive(Debug, Clone)]
 pub struct SuslovSolution {
-    /// The problem, with the terminal time found (for a free `b`).
+    /// The problem, with the weights reached and the terminal time found (for a free `b`).
     pub problem: SuslovProblem,
-    /// The BVP solution on `s ∈ [0, 1]`.
-    pub bvp: Solution,
-    /// `T = b − a`.
-    pub t_span: f64,
-    /// The analytic start.
-    pub start: StartChoice,
-    /// The homotopy stages, in order.
-    pub stages: Vec<StageReport>,
-    /// The requested final tolerance ([`SolveOptions::tol`]), which the a-posteriori
-    /// verification ([`super::verify`]) judges the solution against (a partial result
-    /// carries it too, though it was not reached).
-    pub tolerance: f64,
+    /// The solution, its mesh, start, stages and requested tolerance: everything the checks
+    /// ([`crate::lie::verify`]) and the certificate ([`crate::lie::certify`]) read.
+    pub generic: LieSolution<So3>,
 }
 
 impl SuslovSolution {
     /// `b`.
     pub fn terminal_time(&self) -> f64 {
-        self.problem.t0 + self.t_span
+        self.generic.terminal_time()
     }
 
     /// `y(t) = [Ω, ξ, ξ̇, κ]` at physical time `t ∈ [a, b]`.
     pub fn state(&self, t: f64) -> [f64; N_STATE] {
         let mut y = [0.0; N_STATE];
-        self.bvp
-            .eval_into((t - self.problem.t0) / self.t_span, &mut y);
+        self.generic.state_into(t, &mut y);
         y
     }
 }
@@ -97,11 +89,7 @@ impl SuslovSolution {
         problem.terminal = sol.problem.terminal;
         Self {
             problem,
-            bvp: sol.bvp,
-            t_span: sol.t_span,
-            start: sol.start,
-            stages: sol.stages,
-            tolerance: sol.tolerance,
+            generic: sol,
         }
     }
 }
