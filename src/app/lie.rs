@@ -19,11 +19,11 @@ use std::time::Instant;
 
 use crate::config::{generic::LoadedModelProblem, ModelFile};
 use crate::lie::checks::Verdict;
+use crate::lie::controllability::{AccessibilityVerdict, RANK_RTOL};
 use crate::lie::{self, LieSolution, LieSolveError};
 use crate::model::{Model, ParamMeta};
 use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
 use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
-use crate::suslov::controllability::{AccessibilityVerdict, RANK_RTOL};
 
 use super::{finish, finite, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
 

@@ -30,10 +30,36 @@
 use nalgebra::DMatrix;
 
 use crate::model::{constraint_value_vanishes, Model};
-use crate::suslov::controllability::STATE_SCALE_MAX_EXP;
 
 use super::path::{LevelSet, PathError};
 use super::solve::LieSolution;
+
+/// Default relative threshold of the numerical rank: `σₖ` counts if `σₖ > RANK_RTOL · σ₁`.
+pub const RANK_RTOL: f64 = 1e-9;
+
+/// A state's components are used as given while `max |vₖ|` lies in `[2^−20, 2^20]`; beyond,
+/// the vector is rescaled by an exact power of two first.
+pub const STATE_SCALE_MAX_EXP: i32 = 20;
+
+/// What the states tested show about the accessibility theorem (rank `V` = `dim M` on `M`;
+/// 4 for so(3), the paper's).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub enum AccessibilityVerdict {
+    /// Rank `dim M` at every state of `M` tested (and there was at least one).
+    Accessible {
+        /// States of `M` tested.
+        on_m: usize,
+    },
+    /// Some state of `M` has a numerical rank other than `dim M`.
+    RankDeficient {
+        /// States of `M` tested.
+        on_m: usize,
+        /// Those whose rank is not `dim M`.
+        failing: usize,
+    },
+    /// No state tested lies on `M`: the theorem says nothing about them.
+    NoStateOnM,
+}
 
 /// The rank test at one state.
 #[derive(Debug, Clone, PartialEq, serde::Serialize)]

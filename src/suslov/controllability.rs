@@ -53,6 +53,7 @@ use super::ellipsoid::Inertia;
 use super::layout::stack;
 use super::problem::{model_params, CostWeights};
 use super::SuslovError;
+pub use crate::lie::controllability::{AccessibilityVerdict, RANK_RTOL, STATE_SCALE_MAX_EXP};
 use crate::model::generated::{self, DIM, N_BRACKETS, N_PARAM};
 
 /// Entries of the state `x = [Ω, ξ]`.
@@ -73,9 +74,6 @@ pub type AccessibilityMatrix = SMatrix<f64, NX, NV>;
 
 /// A state `x = [Ω, ξ]`, as the pair `(Ω, ξ)`.
 pub type State = (Vector3<f64>, Vector3<f64>);
-
-/// Default relative threshold of the numerical rank: `σₖ` counts if `σₖ > RANK_RTOL · σ₁`.
-pub const RANK_RTOL: f64 = 1e-9;
 
 /// The drift, the control fields and their brackets at one state `x = [Ω, ξ]`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -210,10 +208,6 @@ pub struct RankReport {
     /// ([`state_scales`]; `(0, 0)` at the usual scales).
     pub scales: (i32, i32),
 }
-
-/// A state's components are used as given while `max |vₖ|` lies in `[2^−20, 2^20]`; beyond,
-/// the vector is rescaled by an exact power of two first.
-pub const STATE_SCALE_MAX_EXP: i32 = 20;
 
 /// `(e_Ω, e_ξ)`: exponents of the powers of two that bring `max |Ωₖ|` and `max |ξₖ|` near 1,
 /// `0` where they already lie in `[2^−20, 2^20]` (or the vector is zero or not finite).
@@ -501,25 +495,6 @@ pub fn check_rtol(rtol: f64) -> Result<f64, SuslovError> {
             ),
         })
     }
-}
-
-/// What the states tested show about the theorem (rank `V` = 4 = dim `M` on `M`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
-pub enum AccessibilityVerdict {
-    /// Rank 4 at every state of `M` tested (and there was at least one).
-    Accessible {
-        /// States of `M` tested.
-        on_m: usize,
-    },
-    /// Some state of `M` has a numerical rank other than 4.
-    RankDeficient {
-        /// States of `M` tested.
-        on_m: usize,
-        /// Those whose rank is not 4.
-        failing: usize,
-    },
-    /// No state tested lies on `M`: the theorem says nothing about them.
-    NoStateOnM,
 }
 
 /// Whether `(Ω, ξ)` lies on `M` in the sense of [`ON_M_RTOL`].
