@@ -253,7 +253,10 @@ fn main() {
             v
         }
     };
-    assert!(!problems.is_empty(), "CORPUS_ONLY = {only:?} selects no problem");
+    assert!(
+        !problems.is_empty(),
+        "CORPUS_ONLY = {only:?} selects no problem"
+    );
 
     let load_before = loadavg();
     let started = date();
@@ -305,12 +308,20 @@ fn main() {
     let mut total = Row::default();
     let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
     let mut unresolved = 0usize;
+    let (mut unverified_checked, mut unverified_passing) = (0usize, 0usize);
     let mut worst = (0.0f64, 0.0f64, 0.0f64);
     for (p, o) in problems.iter().zip(&results) {
         rows.entry(p.category.clone()).or_default().add(p, o);
         total.add(p, o);
         if let Verdict::Explained { key, .. } = &o.verdict {
             *reasons.entry(key.clone()).or_default() += 1;
+        }
+        if let (Verdict::Explained { .. }, Some(c)) = (&o.verdict, &o.check) {
+            unverified_checked += 1;
+            if c.passed() {
+                unverified_passing += 1;
+            }
+            continue;
         }
         if let Some(c) = &o.check {
             if c.unresolved_rows * 10 > c.rows {
@@ -350,13 +361,21 @@ fn main() {
          Suslov-equation test.\n",
         worst.0, worst.1, worst.2
     );
+    let _ = writeln!(
+        r,
+        "Of the {unverified_checked} `unverified` solutions (the tool's own checks failed), \
+         {unverified_passing} pass the independent check of their `trajectory.unverified.csv`.\n"
+    );
     let _ = writeln!(r, "Explained stops by stage (or check):\n");
     let _ = writeln!(r, "| stage | problems |\n|---|---|");
     for (k, c) in &reasons {
         let _ = writeln!(r, "| {k} | {c} |");
     }
     let _ = writeln!(r, "\nEvery problem not solved and verified:\n");
-    let _ = writeln!(r, "| id | fixed b | verdict | s | reason |\n|---|---|---|---|---|");
+    let _ = writeln!(
+        r,
+        "| id | fixed b | verdict | s | reason | independent check |\n|---|---|---|---|---|---|"
+    );
     for (p, o) in problems.iter().zip(&results) {
         let reason = match &o.verdict {
             Verdict::Solved => continue,
@@ -364,9 +383,14 @@ fn main() {
             Verdict::Unexplained(m) => m.clone(),
             Verdict::FalseConverged(f) => f.join("; "),
         };
+        let check = match &o.check {
+            None => "-".to_string(),
+            Some(c) if c.passed() => "passes".to_string(),
+            Some(c) => format!("fails: {}", shorten(&c.failures.join("; "), 160)),
+        };
         let _ = writeln!(
             r,
-            "| {} | {} | {} | {:.2} | {} |",
+            "| {} | {} | {} | {:.2} | {} | {check} |",
             p.id,
             if p.fixed_time { "yes" } else { "no" },
             o.verdict.label(),
