@@ -353,14 +353,18 @@ fn main() {
         let _ = writeln!(r, "{}", row.line(name));
     }
     let _ = writeln!(r, "{}", total.line("**total**"));
-    let _ = writeln!(
-        r,
-        "\nIndependent check of the converged trajectories: largest |<Ω, ξ>|/(|Ω||ξ|) {:.1e}, \
-         energy drift {:.1e}, Suslov residual / scale {:.1e}; {unresolved} converged problem(s) \
-         with more than 10 % of the rows too coarse on the 2001-point grid for the \
-         Suslov-equation test.\n",
-        worst.0, worst.1, worst.2
-    );
+    if total.solved + total.false_converged == 0 {
+        let _ = writeln!(r, "\nNo converged trajectory to check independently.\n");
+    } else {
+        let _ = writeln!(
+            r,
+            "\nIndependent check of the converged trajectories: largest |<Ω, ξ>|/(|Ω||ξ|) \
+             {:.1e}, energy drift {:.1e}, Suslov residual / scale {:.1e}; {unresolved} \
+             converged problem(s) with more than 10 % of the rows too coarse on the 2001-point \
+             grid for the Suslov-equation test.\n",
+            worst.0, worst.1, worst.2
+        );
+    }
     let _ = writeln!(
         r,
         "Of the {unverified_checked} `unverified` solutions (the tool's own checks failed), \
