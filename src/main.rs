@@ -281,6 +281,12 @@ impl Reporter {
                     tracing::debug!("{text}");
                 }
             }
+            AppEvent::Solve(Event::RouteStarted { route, after }) => {
+                // Always said (not only with --verbose): the run takes another way.
+                self.line(format!(
+                    "  route '{route}' (the previous one stopped: {after})"
+                ));
+            }
             AppEvent::Solve(Event::StageFinished(r)) => {
                 let what = if r.outcome.is_completed() {
                     "done".to_string()

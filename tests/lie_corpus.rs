@@ -43,6 +43,20 @@ impl Rng {
     }
 }
 
+/// The solver options of every solve: the defaults, with `max_routes` from the environment
+/// variable `CORPUS_MAX_ROUTES` if set (1: the default route only, to compare with the routes
+/// of `lie::solve::alternatives` in one run).
+fn options() -> SolveOptions {
+    let mut o = SolveOptions::default();
+    if let Some(n) = std::env::var("CORPUS_MAX_ROUTES")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        o.max_routes = n;
+    }
+    o
+}
+
 /// How one solve ended.
 #[derive(Debug, Clone, PartialEq)]
 enum Outcome {
@@ -144,7 +158,7 @@ fn generic_problem<M: Model>(rng: &mut Rng, inertia: &[(&str, f64)], d: &Draw) -
 }
 
 fn generic_outcome<M: Model>(problem: &Problem<M>) -> Outcome {
-    match lie::solve(problem, &SolveOptions::default(), &mut |_| {}) {
+    match lie::solve(problem, &options(), &mut |_| {}) {
         Ok(sol) => {
             let v = lie::verify_solution(&sol);
             if v.verification.passed() {
@@ -164,7 +178,7 @@ fn generic_outcome<M: Model>(problem: &Problem<M>) -> Outcome {
 }
 
 fn so3_outcome(problem: &SuslovProblem) -> Outcome {
-    match solve::solve(problem, &SolveOptions::default(), &mut |_| {}) {
+    match solve::solve(problem, &options(), &mut |_| {}) {
         Ok(sol) => {
             let v = lie::verify_solution(&sol.generic);
             if v.verification.passed() {
@@ -268,7 +282,7 @@ fn keeps_the_level(
 ) -> Outcome {
     type Inh = suslov::model::so3_inhomogeneous::So3Inhomogeneous;
     let c = problem.param("c").unwrap();
-    match lie::solve(problem, &SolveOptions::default(), &mut |_| {}) {
+    match lie::solve(problem, &options(), &mut |_| {}) {
         Ok(sol) => {
             let v = lie::verify_solution(&sol);
             let (a, b) = (sol.problem.t0, sol.terminal_time());

@@ -266,6 +266,18 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
         }),
     );
     c.extra.insert(
+        "routes".into(),
+        serde_json::json!(sol
+            .routes
+            .iter()
+            .map(|r| serde_json::json!({
+                "route": r.route,
+                "stopped": r.stopped,
+                "seconds": r.seconds,
+            }))
+            .collect::<Vec<_>>()),
+    );
+    c.extra.insert(
         "start".into(),
         serde_json::json!({
             "omega_p": sol.start.omega_p,

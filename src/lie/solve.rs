@@ -41,6 +41,14 @@
 //! - **C.** the end state is continued to `Ω_b` at the level `γ` (regular there).
 //!
 //! A `γ` that depends on `ξ` is refused (it would change Suslov's equations).
+//!
+//! **Routes.** The order above, from the start the paper's cases choose, is the default
+//! [`Route`]. When it stops, [`solve`] does not give up: it tries other routes, chosen by where
+//! the default stopped ([`alternatives`]): after a failed start, the other analytic start, a
+//! finer initial mesh, a smaller and a larger `β_m`; after a stalled weight stage, all weights
+//! continued jointly along one parameter, β before tracking, the other start, a finer mesh.
+//! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
+//! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
 
 use std::sync::Arc;
 
@@ -87,6 +95,9 @@ pub struct SolveOptions {
     pub max_nodes: usize,
     /// Override of the start case (default: [`StartStrategy::Auto`]).
     pub start: StartStrategy,
+    /// How many routes [`solve`] may try, the default route included (1: only the default;
+    /// see [`alternatives`]).
+    pub max_routes: usize,
 }
 
 impl Default for SolveOptions {
@@ -98,6 +109,7 @@ impl Default for SolveOptions {
             initial_intervals: 100,
             max_nodes: 20_000,
             start: StartStrategy::Auto,
+            max_routes: 6,
         }
     }
 }
@@ -115,6 +127,60 @@ pub struct StartChoice {
     pub beta_m: f64,
     /// Max relative energy deviation of `Ω_d` from `E` on `[a, b_p]`.
     pub desired_energy_deviation: f64,
+}
+
+/// The order of the weight stages after the analytic start.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum StageOrder {
+    /// Tracking, then β, then smoothing (the paper's order).
+    Sequential,
+    /// β first, then tracking, then smoothing: the control effort reaches its target before
+    /// the tracking weight leaves the start's value (when the small `β_m` without tracking is
+    /// what stalls).
+    BetaFirst,
+    /// Every weight at once, along one homotopy parameter (tracking and smoothing linearly,
+    /// β geometrically): a different path through the space of weights.
+    Joint,
+}
+
+/// A route through the homotopy: the analytic start, the order of the weight stages, `β_m`
+/// and the initial mesh. [`solve`] tries [`Route::DEFAULT`] first and, when it stops, other
+/// routes chosen by where it stopped (module docs); every route tried is reported
+/// ([`LieSolution::routes`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Route {
+    /// Name, e.g. "default" or "joint weights".
+    pub name: &'static str,
+    /// The start (`None`: the options' [`SolveOptions::start`]).
+    pub start: Option<StartStrategy>,
+    /// The order of the weight stages.
+    pub order: StageOrder,
+    /// `β_m` is the default (or the options') times this.
+    pub beta_m_factor: f64,
+    /// The initial mesh has this many times the options' intervals.
+    pub mesh_factor: usize,
+}
+
+impl Route {
+    /// The paper's route: the options' start, sequential stages.
+    pub const DEFAULT: Self = Self {
+        name: "default",
+        start: None,
+        order: StageOrder::Sequential,
+        beta_m_factor: 1.0,
+        mesh_factor: 1,
+    };
+}
+
+/// How one route ended.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RouteReport {
+    /// The route's name.
+    pub route: &'static str,
+    /// `None` if it solved the problem, else why it stopped (the error's message).
+    pub stopped: Option<String>,
+    /// Wall time, seconds.
+    pub seconds: f64,
 }
 
 /// How a stage of the homotopy ended.
@@ -195,6 +261,13 @@ pub enum Event<'a> {
     },
     /// A stage ended: completed, or stopped (see [`StageReport::outcome`]).
     StageFinished(&'a StageReport),
+    /// The previous route stopped; another one starts from the beginning.
+    RouteStarted {
+        /// The route's name.
+        route: &'static str,
+        /// Why the previous route stopped.
+        after: &'a str,
+    },
     /// A Newton step or mesh pass inside a BVP solve of a stage (at parameter `lambda` of
     /// the stage's homotopy, 0 for single solves).
     Bvp {
@@ -222,6 +295,9 @@ pub struct LieSolution<M: Model> {
     pub stages: Vec<StageReport>,
     /// The requested final tolerance, which the verification judges against.
     pub tolerance: f64,
+    /// The routes tried, in order (the last is this solution's, unless it is a partial
+    /// result).
+    pub routes: Vec<RouteReport>,
 }
 
 impl<M: Model> std::fmt::Debug for LieSolution<M> {
@@ -232,6 +308,7 @@ impl<M: Model> std::fmt::Debug for LieSolution<M> {
             .field("start", &self.start)
             .field("stages", &self.stages)
             .field("tolerance", &self.tolerance)
+            .field("routes", &self.routes)
             .finish_non_exhaustive()
     }
 }
@@ -571,6 +648,7 @@ impl<M: Model> Homotopy<'_, M> {
             start: self.start.clone(),
             stages: self.stages.clone(),
             tolerance: self.tolerance,
+            routes: Vec::new(),
         }
     }
 
@@ -908,10 +986,191 @@ fn constraint_free<M: Model>(problem: &Problem<M>) -> Result<Problem<M>, LieSolv
     Ok(base)
 }
 
-/// Solve `problem` from the analytic singular solution through the staged homotopy.
+/// Solve `problem` from the analytic singular solution through the staged homotopy: the
+/// default route first, then, if it stops, the alternatives chosen by where it stopped
+/// ([`alternatives`]), until one solves the problem. When every route stops, the default
+/// route's error is returned (its partial result, if any, lists every route tried in
+/// [`LieSolution::routes`]; a failed start lists them in its message).
 pub fn solve<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let mut routes = Vec::new();
+    let clock = std::time::Instant::now();
+    let first = match solve_route(problem, options, &Route::DEFAULT, events) {
+        Ok(mut sol) => {
+            sol.routes.push(RouteReport {
+                route: Route::DEFAULT.name,
+                stopped: None,
+                seconds: clock.elapsed().as_secs_f64(),
+            });
+            return Ok(sol);
+        }
+        Err(e) => e,
+    };
+    let Some(others) = alternatives(&first, options) else {
+        return Err(first);
+    };
+    routes.push(RouteReport {
+        route: Route::DEFAULT.name,
+        stopped: Some(first.to_string()),
+        seconds: clock.elapsed().as_secs_f64(),
+    });
+    for route in others
+        .into_iter()
+        .take(options.max_routes.saturating_sub(1))
+    {
+        let clock = std::time::Instant::now();
+        let after = routes
+            .last()
+            .and_then(|r: &RouteReport| r.stopped.clone())
+            .unwrap_or_default();
+        events(&Event::RouteStarted {
+            route: route.name,
+            after: &after,
+        });
+        match solve_route(problem, options, &route, events) {
+            Ok(mut sol) => {
+                routes.push(RouteReport {
+                    route: route.name,
+                    stopped: None,
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                sol.routes = routes;
+                return Ok(sol);
+            }
+            Err(e) => routes.push(RouteReport {
+                route: route.name,
+                stopped: Some(e.to_string()),
+                seconds: clock.elapsed().as_secs_f64(),
+            }),
+        }
+    }
+    Err(match first {
+        LieSolveError::StageFailed {
+            stage,
+            parameter,
+            reached,
+            target,
+            reason,
+            mut partial,
+        } => {
+            partial.routes = routes;
+            LieSolveError::StageFailed {
+                stage,
+                parameter,
+                reached,
+                target,
+                reason,
+                partial,
+            }
+        }
+        LieSolveError::Start(reason) => {
+            let tried: Vec<String> = routes[1..]
+                .iter()
+                .map(|r| format!("{}: {}", r.route, r.stopped.as_deref().unwrap_or("solved")))
+                .collect();
+            LieSolveError::Start(format!(
+                "{reason}; other routes tried: {}",
+                tried.join("; ")
+            ))
+        }
+        other => other,
+    })
+}
+
+/// The routes to try after the default route stopped with `error`, in order, or `None` when
+/// no other route can help (an invalid problem, a missing role, an unsupported feature, a bug).
+///
+/// - A failed start: the other analytic start (unless the options fix it), a 4 times finer
+///   initial mesh, `β_m` 10 times smaller, and 10 times larger.
+/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
+///   other start, the finer mesh.
+/// - Any later stage: the weights jointly (a different point to start the later stages
+///   from), the finer mesh.
+pub fn alternatives<M: Model>(
+    error: &LieSolveError<M>,
+    options: &SolveOptions,
+) -> Option<Vec<Route>> {
+    let route = |name, start, order, beta_m_factor, mesh_factor| Route {
+        name,
+        start,
+        order,
+        beta_m_factor,
+        mesh_factor,
+    };
+    let other_start = |chosen: &StartChoice| -> Option<Route> {
+        if options.start != StartStrategy::Auto {
+            return None;
+        }
+        let strategy = if chosen.omega_p == "projected desired path" {
+            StartStrategy::Segment
+        } else if chosen.case == 2 {
+            StartStrategy::DesiredGammaFromZero
+        } else {
+            return None;
+        };
+        Some(route(
+            "other start",
+            Some(strategy),
+            StageOrder::Sequential,
+            1.0,
+            1,
+        ))
+    };
+    let finer = route("finer mesh", None, StageOrder::Sequential, 1.0, 4);
+    let joint = route("joint weights", None, StageOrder::Joint, 1.0, 1);
+    match error {
+        LieSolveError::Start(_) | LieSolveError::Bvp(_) => {
+            let mut r = Vec::new();
+            if options.start == StartStrategy::Auto {
+                r.push(route(
+                    "segment start",
+                    Some(StartStrategy::Segment),
+                    StageOrder::Sequential,
+                    1.0,
+                    1,
+                ));
+            }
+            r.push(finer);
+            r.push(route(
+                "smaller beta_m",
+                None,
+                StageOrder::Sequential,
+                0.1,
+                1,
+            ));
+            r.push(route(
+                "larger beta_m",
+                None,
+                StageOrder::Sequential,
+                10.0,
+                1,
+            ));
+            Some(r)
+        }
+        LieSolveError::StageFailed { stage, partial, .. } => {
+            let mut r = vec![joint];
+            if matches!(*stage, "gamma" | "beta" | "eta") {
+                r.push(route("beta first", None, StageOrder::BetaFirst, 1.0, 1));
+                r.extend(other_start(&partial.start));
+            }
+            r.push(finer);
+            Some(r)
+        }
+        LieSolveError::Invalid(_)
+        | LieSolveError::Roles { .. }
+        | LieSolveError::ConstraintRoute(_)
+        | LieSolveError::Unsupported(_) => None,
+    }
+}
+
+/// Solve `problem` along one route (module docs).
+fn solve_route<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    route: &Route,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     let p = problem.params();
@@ -944,17 +1203,19 @@ pub fn solve<M: Model>(
         )));
     }
     let base = constraint_free(problem)?;
-    let beta_m = options.beta_m.unwrap_or_else(|| {
-        // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
-        let g = if gamma > 0.0 { gamma } else { 1.0 };
-        M::WEIGHTS
-            .iter()
-            .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
-            .map(|w| p[w.index])
-            .fold(p[beta].min(g), f64::min)
-            * 1e-2
-    });
-    let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, options.start)?;
+    let beta_m = route.beta_m_factor
+        * options.beta_m.unwrap_or_else(|| {
+            // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
+            let g = if gamma > 0.0 { gamma } else { 1.0 };
+            M::WEIGHTS
+                .iter()
+                .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+                .map(|w| p[w.index])
+                .fold(p[beta].min(g), f64::min)
+                * 1e-2
+        });
+    let strategy = route.start.unwrap_or(options.start);
+    let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, strategy)?;
 
     let mut params = base.params().to_vec();
     params[beta] = beta_m;
@@ -972,7 +1233,10 @@ pub fn solve<M: Model>(
         };
     }
     let n = M::DIM;
-    let m = options.initial_intervals.max(2);
+    // A finer route's mesh stays below half the node cap.
+    let m = (options.initial_intervals * route.mesh_factor)
+        .min(options.initial_intervals.max(options.max_nodes / 2))
+        .max(2);
     let x: Vec<f64> = (0..=m).map(|i| i as f64 / m as f64).collect();
     let mut bad = None;
     let start_bvp = LieBvp::<M> {
@@ -1090,33 +1354,82 @@ pub fn solve<M: Model>(
         tracking: tracked,
     };
 
-    if let Some(i) = tracking {
-        match h.start.case {
-            1 => {
-                h.stage("gamma", i, 1.0, 0.0, &|l| 1.0 - l, &cont, events)?;
-                h.tracking = problem.desired.clone(); // weight 0 from here on
+    let beta_target = p[beta];
+    let (lo, hi) = (beta_m.ln(), beta_target.ln());
+    let beta_at = move |l: f64| {
+        if l >= 1.0 {
+            beta_target
+        } else {
+            (lo + l * (hi - lo)).exp()
+        }
+    };
+    // The tracking weight's value at λ of its stage (case 1: 1 → 0, case 2: 0 → γ, case 3: γ).
+    let case = h.start.case;
+    let tracking_at = move |l: f64| match case {
+        1 => 1.0 - l,
+        2 => l * gamma,
+        _ => gamma,
+    };
+    let tracking_stage = |h: &mut Homotopy<'_, M>, events: &mut dyn FnMut(&Event)| {
+        if let Some(i) = tracking {
+            if case != 3 {
+                let (from, to) = (tracking_at(0.0), tracking_at(1.0));
+                h.stage("gamma", i, from, to, &tracking_at, &cont, events)?;
+                h.params[i] = to;
             }
-            2 => h.stage("gamma", i, 0.0, gamma, &move |l| l * gamma, &cont, events)?,
-            _ => {}
+        }
+        Ok::<(), LieSolveError<M>>(())
+    };
+    let beta_stage = |h: &mut Homotopy<'_, M>, events: &mut dyn FnMut(&Event)| {
+        if beta_target != beta_m {
+            h.stage("beta", beta, beta_m, beta_target, &beta_at, &cont, events)?;
+            h.params[beta] = beta_target;
+        }
+        Ok::<(), LieSolveError<M>>(())
+    };
+    match route.order {
+        StageOrder::Sequential => {
+            tracking_stage(&mut h, events)?;
+            beta_stage(&mut h, events)?;
+        }
+        StageOrder::BetaFirst => {
+            beta_stage(&mut h, events)?;
+            tracking_stage(&mut h, events)?;
+        }
+        StageOrder::Joint => {
+            let smooth = smoothing.clone();
+            let weights = move |l: f64, m: &mut Member| {
+                if let Some(i) = tracking {
+                    m.params[i] = tracking_at(l);
+                }
+                m.params[beta] = beta_at(l);
+                for &i in &smooth {
+                    m.params[i] = if l >= 1.0 { p[i] } else { l * p[i] };
+                }
+                l
+            };
+            h.stage_with(
+                &StageSpec {
+                    name: "weights",
+                    parameter: "fraction of the way to the weights",
+                    from: 0.0,
+                    to: 1.0,
+                    at: &weights,
+                },
+                &cont,
+                events,
+            )?;
+            for &i in &smoothing {
+                h.params[i] = p[i];
+            }
         }
     }
-    let beta_target = p[beta];
-    if beta_target != beta_m {
-        let (lo, hi) = (beta_m.ln(), beta_target.ln());
-        h.stage(
-            "beta",
-            beta,
-            beta_m,
-            beta_target,
-            &move |l| (lo + l * (hi - lo)).exp(),
-            &cont,
-            events,
-        )?;
-        h.params[beta] = beta_target;
+    if case == 1 {
+        h.tracking = problem.desired.clone(); // weight 0 from here on
     }
     for &i in &smoothing {
         let target = p[i];
-        if target > 0.0 {
+        if target > 0.0 && h.params[i] != target {
             h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
         }
     }

@@ -1,0 +1,78 @@
+//! The homotopy's routes (`suslov::lie::solve::alternatives`): when the default route stops,
+//! another one is tried, every route tried is listed, and `max_routes = 1` is the default route
+//! alone.
+
+use std::path::Path;
+
+use suslov::lie::{self, LieSolveError};
+use suslov::suslov::solve::SolveOptions;
+
+fn hard(file: &str) -> suslov::config::LoadedProblem {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/corpus/hard")
+        .join(file);
+    suslov::config::load(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Issue #12's γ = 0 file: the default route stops in the tracking stage just short of
+/// γ = 0 (at 6.7e-7, where β is still β_m); the joint route (every weight at once, so β grows
+/// while the tracking weight goes) solves it, verified.
+#[test]
+fn the_joint_route_solves_the_gamma_zero_file_the_default_route_does_not() {
+    let loaded = hard("issue12_gamma_zero_free.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let only_default = SolveOptions {
+        max_routes: 1,
+        ..loaded.options.clone()
+    };
+    match lie::solve(&problem, &only_default, &mut |_| {}) {
+        Err(LieSolveError::StageFailed {
+            stage,
+            reached,
+            partial,
+            ..
+        }) => {
+            assert_eq!(stage, "gamma");
+            assert!(reached > 0.0 && reached < 1e-5, "{reached} {partial:?}");
+            let names: Vec<&str> = partial.routes.iter().map(|r| r.route).collect();
+            assert_eq!(names, ["default"], "one route: nothing else tried");
+        }
+        other => panic!("the default route alone should stop: {other:?}"),
+    }
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("another route solves it");
+    let routes: Vec<(&str, bool)> = sol
+        .routes
+        .iter()
+        .map(|r| (r.route, r.stopped.is_none()))
+        .collect();
+    assert_eq!(routes, [("default", false), ("joint weights", true)]);
+    assert!(sol.routes[0]
+        .stopped
+        .as_deref()
+        .is_some_and(|r| r.contains("stage 'gamma'")));
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert!(names.contains(&"weights"), "{names:?}");
+    let v = lie::verify_solution(&sol);
+    assert!(v.verification.passed(), "{:?}", v.verification.verdict());
+}
+
+/// When every route stops, the default route's error comes back, and its partial result
+/// lists every route tried with its reason.
+#[test]
+fn a_problem_no_route_solves_lists_every_route_tried() {
+    let loaded = hard("issue12_beta_stage_fixed.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("no route solves it");
+    let LieSolveError::StageFailed { stage, partial, .. } = err else {
+        panic!("a stage stops: {err}");
+    };
+    assert_eq!(stage, "beta");
+    let names: Vec<&str> = partial.routes.iter().map(|r| r.route).collect();
+    assert_eq!(names[0], "default");
+    assert!(
+        names.len() >= 3 && names.len() <= loaded.options.max_routes,
+        "{names:?}"
+    );
+    assert!(names.contains(&"joint weights") && names.contains(&"beta first"));
+    assert!(partial.routes.iter().all(|r| r.stopped.is_some()));
+}
