@@ -56,17 +56,47 @@ fn the_joint_route_solves_the_gamma_zero_file_the_default_route_does_not() {
     assert!(v.verification.passed(), "{:?}", v.verification.verdict());
 }
 
-/// When every route stops, the default route's error comes back, and its partial result
-/// lists every route tried with its reason.
+/// When every route stops, the default route's error comes back with its evidence, and its
+/// partial result lists every route tried with its reason. Issue #12's fixed-time file that
+/// stops in the beta stage at 0.298 "whatever the mesh": the optimal xi shrinks toward 0
+/// (|xi|^2 = 1 - (beta/alpha)|d(xi/|xi|)/dt|^2 pointwise, src/lie/solve.rs), where Suslov's
+/// equations are singular.
 #[test]
 fn a_problem_no_route_solves_lists_every_route_tried() {
     let loaded = hard("issue12_beta_stage_fixed.toml");
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
     let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("no route solves it");
-    let LieSolveError::StageFailed { stage, partial, .. } = err else {
+    let LieSolveError::StageFailed {
+        stage,
+        partial,
+        reason,
+        ..
+    } = err
+    else {
         panic!("a stage stops: {err}");
     };
     assert_eq!(stage, "beta");
+    // The evidence: pseudo-arclength found no fold, and the control collapses (min |xi| from
+    // about 1 to below 0.1 as beta grew, where alpha = 0.17 is small against beta).
+    assert!(
+        reason.contains("pseudo-arclength continuation found no fold"),
+        "{reason}"
+    );
+    assert!(reason.contains("xi collapses toward 0"), "{reason}");
+    assert!(reason.contains("raise alpha"), "{reason}");
+    let min_xi = partial
+        .bvp
+        .y
+        .chunks_exact(suslov::model::generated::N_STATE)
+        .map(|y| {
+            y[suslov::model::generated::XI]
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(min_xi < 0.1, "{min_xi}");
     let names: Vec<&str> = partial.routes.iter().map(|r| r.route).collect();
     assert_eq!(names[0], "default");
     assert!(

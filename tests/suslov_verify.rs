@@ -127,8 +127,8 @@ fn run_case_records_an_unverified_loose_solve_in_summary_json() {
 #[test]
 fn the_paper_cases_still_converge_with_unchanged_results() {
     for (eta, b, cost) in [
-        (1.0, 11.359616203476827, 15.394760771339985),
-        (0.01, 9.838326431487959, 2.6658490597410167),
+        (1.0, 11.359616203476824, 15.394760771339968),
+        (0.01, 9.838326431487959, 2.665849059741015),
     ] {
         let sol = solve(&paper::problem(eta), &SolveOptions::default(), &mut |_| {})
             .unwrap_or_else(|e| panic!("{e}"));
@@ -262,8 +262,10 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
 
     // A start that fails (the paper's problem forced to the segment start, README "Choices
     // made") ends its stage with the reason too.
+    // One route: one stage event.
     let options = SolveOptions {
         start: StartStrategy::Segment,
+        max_routes: 1,
         ..Default::default()
     };
     let mut finished = Vec::new();
@@ -276,6 +278,33 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
     assert_eq!(finished.len(), 1);
     assert_eq!(finished[0].0, "start");
     assert!(!finished[0].1.is_completed());
+    // Every route: each start says it failed, and the error lists the routes tried (the
+    // forced start is kept: no "segment start" route).
+    let options = SolveOptions {
+        max_routes: 1 + 3,
+        ..options
+    };
+    let mut finished = Vec::new();
+    let result = solve(&paper::problem(0.01), &options, &mut |e| {
+        if let Event::StageFinished(r) = e {
+            finished.push((r.name, r.outcome.clone()));
+        }
+    });
+    let Err(SolveError::Start(message)) = result else {
+        panic!("every route fails to start");
+    };
+    // Four starts; the larger beta_m's succeeds and that route stops in a later stage.
+    let starts: Vec<bool> = finished
+        .iter()
+        .filter(|(name, _)| *name == "start")
+        .map(|(_, o)| o.is_completed())
+        .collect();
+    assert_eq!(starts, [false, false, false, true], "{finished:?}");
+    assert!(!finished.last().expect("events").1.is_completed());
+    for route in ["finer mesh", "smaller beta_m", "larger beta_m"] {
+        assert!(message.contains(&format!("{route}: ")), "{message}");
+    }
+    assert!(!message.contains("segment start"), "{message}");
 }
 
 /// `suslov certify` and `controllability --along` use the solution they get; an unverified

@@ -59,6 +59,9 @@ use crate::model::{HomotopyRole, Model};
 use super::path::{projected_segment, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
+/// Cap on the pseudo-arclength attempts of a stage whose natural continuation stalled.
+const ARCLENGTH_MAX_STEPS: usize = 80;
+
 /// `Ω_d` counts as admissible (paper's third case) when its relative energy deviation from
 /// `E` stays below this and Properties 1 and 3 hold.
 pub const ADMISSIBLE_ENERGY_TOL: f64 = 1e-4;
@@ -238,6 +241,10 @@ pub struct StageReport {
     pub seconds: f64,
     /// Whether the stage reached its target.
     pub outcome: StageOutcome,
+    /// The continued parameter's values at the folds (turning points) that pseudo-arclength
+    /// continuation passed after natural continuation stalled (empty if it did not stall, or
+    /// found none). A solution reached past a fold may be a saddle: the certificate decides.
+    pub folds: Vec<f64>,
 }
 
 /// Events reported while solving.
@@ -636,11 +643,14 @@ impl<M: Model> Homotopy<'_, M> {
             problem.set_weight(w.index, self.params[w.index]);
         }
         problem.omega_b.clone_from(&self.omega_b);
-        if self.fixed_span.is_none() {
-            problem.terminal = TerminalTime::Free {
+        // The member solved: a free-time problem stopped before its time stage was solved at
+        // the fixed time b_p (its BVP has no unknown T).
+        problem.terminal = match self.fixed_span {
+            None => TerminalTime::Free {
                 guess: problem.t0 + self.t_span,
-            };
-        }
+            },
+            Some(span) => TerminalTime::Fixed(problem.t0 + span),
+        };
         LieSolution {
             problem,
             bvp: self.solution.clone(),
@@ -760,13 +770,98 @@ impl<M: Model> Homotopy<'_, M> {
                 })
             },
         )?;
-        let (reached_member, reached) = at(outcome.lambda);
+        let xi_before = xi_extent::<M>(&self.solution);
+        let mut lambda = outcome.lambda;
+        let mut solution = outcome.solution.clone();
+        let mut steps = outcome.steps();
+        let mut failures = outcome.failures();
+        let mut newton = outcome.newton_iterations();
+        let mut status = if outcome.status.is_success() {
+            None
+        } else {
+            Some(outcome.status.to_string())
+        };
+        let mut folds = Vec::new();
+        if let Some(natural_reason) = status.clone() {
+            // Natural continuation stalled: follow the branch by pseudo-arclength from the last
+            // converged point, through folds, to λ = 1 if the branch gets there.
+            let arc = continuation::ArclengthOptions {
+                initial_step: 0.02,
+                max_step: 0.2,
+                min_step: 1e-5,
+                max_steps: ARCLENGTH_MAX_STEPS,
+                lambda_stop: Some(1.0),
+                bvp: opts.bvp.clone(),
+                ..Default::default()
+            };
+            let monitor = |s: &Solution| s.eval(0.5).iter().map(|v| v * v).sum::<f64>().sqrt();
+            events(&Event::StageStarted {
+                name,
+                from: at(lambda).1,
+                to,
+            });
+            if let Ok(rescue) = continuation::pseudo_arclength(
+                family,
+                lambda,
+                &outcome.solution,
+                monitor,
+                &arc,
+                &mut |_| {},
+            ) {
+                steps += rescue.steps();
+                failures += rescue.failures();
+                newton += rescue.newton_iterations();
+                folds = rescue.folds.iter().map(|f| at(f.lambda).1).collect();
+                match rescue.status {
+                    continuation::ArclengthStatus::ReachedStop => {
+                        lambda = 1.0;
+                        solution = rescue.solution;
+                        status = None;
+                    }
+                    other => {
+                        let furthest = rescue
+                            .branch
+                            .iter()
+                            .map(|b| b.lambda)
+                            .fold(lambda, f64::max);
+                        status = Some(if let Some(f) = rescue.folds.first() {
+                            format!(
+                                "{natural_reason}; pseudo-arclength continuation found a fold at \
+                                 {} = {} (the branch turns back there and reaches no further than {} = {}; {other}): the target is not on this branch",
+                                spec.parameter,
+                                at(f.lambda).1,
+                                spec.parameter,
+                                at(furthest).1
+                            )
+                        } else {
+                            format!(
+                                "{natural_reason}; pseudo-arclength continuation found no fold and got no further than {} = {} ({other})",
+                                spec.parameter,
+                                at(furthest).1
+                            )
+                        });
+                    }
+                }
+            }
+        }
+        if let Some(reason) = &mut status {
+            if let Some(why) = xi_collapse::<M>(
+                xi_before,
+                &solution,
+                &at(lambda).0.params,
+                self.problem.params(),
+            ) {
+                reason.push_str("; ");
+                reason.push_str(&why);
+            }
+        }
+        let (reached_member, reached) = at(lambda);
         (self.params, self.omega_b, self.level_shift) = (
             reached_member.params,
             reached_member.omega_b,
             reached_member.level_shift,
         );
-        self.solution = outcome.solution.clone();
+        self.solution = solution;
         if self.fixed_span.is_none() {
             self.t_span = self.solution.p[SPAN];
         }
@@ -775,18 +870,16 @@ impl<M: Model> Homotopy<'_, M> {
             parameter: spec.parameter,
             from,
             to,
-            steps: outcome.steps(),
-            failures_recovered: outcome.failures(),
-            newton_iterations: outcome.newton_iterations(),
+            steps,
+            failures_recovered: failures,
+            newton_iterations: newton,
             nodes: self.solution.num_nodes(),
             seconds: clock.elapsed().as_secs_f64(),
-            outcome: if outcome.status.is_success() {
-                StageOutcome::Completed
-            } else {
-                StageOutcome::Stopped {
-                    reason: outcome.status.to_string(),
-                }
+            outcome: match status {
+                None => StageOutcome::Completed,
+                Some(reason) => StageOutcome::Stopped { reason },
             },
+            folds,
         };
         self.record(stage_report, spec.parameter, reached, events)
     }
@@ -943,6 +1036,7 @@ impl<M: Model> Homotopy<'_, M> {
             newton_iterations: sol.stats.newton_iterations,
             nodes: sol.num_nodes(),
             seconds: clock.elapsed().as_secs_f64(),
+            folds: Vec::new(),
             outcome: if sol.is_success() {
                 StageOutcome::Completed
             } else {
@@ -959,6 +1053,68 @@ impl<M: Model> Homotopy<'_, M> {
         }
         self.record(report, "-", f64::NAN, events)
     }
+}
+
+/// `(min |ξ|, max |ê̇|)` over the mesh nodes of `sol`, `ê = ξ/|ξ|` the constraint direction and
+/// `|ê̇| = |ξ̇ − ê⟨ê, ξ̇⟩| / |ξ|` its turning rate (physical time).
+fn xi_extent<M: Model>(sol: &Solution) -> (f64, f64) {
+    let (mut min_xi, mut max_turn) = (f64::INFINITY, 0.0_f64);
+    for y in sol.y.chunks_exact(M::N_STATE) {
+        let (xi, xi_dot) = (&y[M::XI], &y[M::XIDOT]);
+        let r = norm(xi);
+        min_xi = min_xi.min(r);
+        let along: f64 = xi.iter().zip(xi_dot).map(|(a, b)| a * b).sum::<f64>() / (r * r);
+        let turn: Vec<f64> = xi_dot.iter().zip(xi).map(|(d, x)| d - along * x).collect();
+        max_turn = max_turn.max(norm(&turn) / r);
+    }
+    (min_xi, max_turn)
+}
+
+/// Below this `min |ξ|` (and below half its value at the stage's start) a stalled stage is
+/// diagnosed as `ξ` collapsing toward 0.
+const XI_COLLAPSE: f64 = 0.25;
+
+/// Why a stage that stalled at `sol` may have no solution ahead: the constraint covector `ξ`
+/// shrinking toward 0, where Suslov's equations are singular (`⟨ξ, 𝕀⁻¹ξ⟩` divides the
+/// multiplier). Suslov's equations depend on `ξ` only through its direction `ê`, so a cost that
+/// charges `β/2 |ξ̇|²` and holds `|ξ|` near 1 by `α/4 (|ξ|² − 1)²` (every shipped model) is
+/// lowered by shrinking `ξ` wherever `ê` turns: pointwise (neglecting `d|ξ|/dt`) the optimal
+/// `|ξ|² = 1 − (β/α) |ê̇|²`, which reaches 0 where `|ê̇| ≥ sqrt(α/β)`. `before` is
+/// [`xi_extent`] at the stage's start; the weights named are the model's `Beta` weight and,
+/// when it has exactly one, its `Fixed` weight, at `params` (the stall) and `target` (the
+/// problem's).
+fn xi_collapse<M: Model>(
+    before: (f64, f64),
+    sol: &Solution,
+    params: &[f64],
+    target: &[f64],
+) -> Option<String> {
+    let (min_xi, max_turn) = xi_extent::<M>(sol);
+    if !(min_xi < XI_COLLAPSE && min_xi < 0.5 * before.0) {
+        return None;
+    }
+    let beta = M::WEIGHTS.iter().find(|w| w.role == HomotopyRole::Beta)?;
+    let mut fixed = M::WEIGHTS.iter().filter(|w| w.role == HomotopyRole::Fixed);
+    let (b, name_b) = (params[beta.index], M::PARAM_NAMES[beta.index]);
+    let mut why = format!(
+        "xi collapses toward 0 (min |xi| {:.3} at the stage's start, {min_xi:.3} here), where \
+         Suslov's equations are singular: the cost shrinks xi wherever its direction turns fast",
+        before.0
+    );
+    if let (Some(alpha), None) = (fixed.next(), fixed.next()) {
+        let (a, name_a) = (params[alpha.index], M::PARAM_NAMES[alpha.index]);
+        why.push_str(&format!(
+            " (|xi|^2 = 1 - ({name_b}/{name_a}) |d(xi/|xi|)/dt|^2 pointwise: 0 where the \
+             direction turns faster than sqrt({name_a}/{name_b}) = {:.3} rad/s; here it turns \
+             at up to {max_turn:.3} rad/s); raise {name_a} (= {}) or lower {name_b} (= {})",
+            (a / b).sqrt(),
+            target[alpha.index],
+            target[beta.index]
+        ));
+    } else {
+        why.push_str(&format!("; lower {name_b} (= {})", target[beta.index]));
+    }
+    Some(why)
 }
 
 /// `a + λ (b − a)`, entrywise.
@@ -1150,6 +1306,11 @@ pub fn alternatives<M: Model>(
             ));
             Some(r)
         }
+        // The polish only tightens the tolerance of a solution already found: another route
+        // ends at the same solution (its failure is the node cap or the tolerance).
+        LieSolveError::StageFailed {
+            stage: "polish", ..
+        } => None,
         LieSolveError::StageFailed { stage, partial, .. } => {
             let mut r = vec![joint];
             if matches!(*stage, "gamma" | "beta" | "eta") {
@@ -1325,6 +1486,7 @@ fn solve_route<M: Model>(
         nodes: first.num_nodes(),
         seconds: clock.elapsed().as_secs_f64(),
         outcome: StageOutcome::Completed,
+        folds: Vec::new(),
     };
     if !first.is_success() {
         let reason = format!(
