@@ -106,3 +106,44 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
     assert!(names.contains(&"joint weights") && names.contains(&"beta first"));
     assert!(partial.routes.iter().all(|r| r.stopped.is_some()));
 }
+
+/// Issue #12's free-time file whose delta stage stops at 0.020 (target 1.22): the fixed-time
+/// scan is the evidence. Its verified samples give J*(T) increasing with T (the time weight
+/// 1.22 dominates: J*(1.008) = 1.27, J*(1.344) = 1.67, J*(2.016) = 2.50 when measured), so
+/// the optimal b - a lies below the shortest T solved; the error says so with the samples.
+#[test]
+fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
+    use suslov::lie::solve::{TIME_SCAN, TIME_SCAN_FACTORS};
+    let loaded = hard("issue12_delta_stage_free.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("it stops");
+    let LieSolveError::StageFailed {
+        stage,
+        reason,
+        partial,
+        ..
+    } = err
+    else {
+        panic!("the delta stage stops: {err}");
+    };
+    assert_eq!(stage, "delta");
+    assert!(reason.contains("J*(T) increases with T"), "{reason}");
+    assert_eq!(partial.time_scan.len(), TIME_SCAN_FACTORS.len());
+    let solved: Vec<(f64, f64)> = partial
+        .time_scan
+        .iter()
+        .filter_map(|s| s.cost.map(|j| (s.span, j)))
+        .collect();
+    assert!(solved.len() >= 3, "{:?}", partial.time_scan);
+    assert!(solved
+        .windows(2)
+        .all(|w| w[0].0 < w[1].0 && w[0].1 < w[1].1));
+    // Every sample without a cost says why.
+    assert!(partial
+        .time_scan
+        .iter()
+        .all(|s| s.cost.is_some() != s.stopped.is_some()));
+    let last = partial.routes.last().expect("routes");
+    assert_eq!(last.route, TIME_SCAN);
+    assert!(last.stopped.is_some());
+}

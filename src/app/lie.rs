@@ -277,6 +277,20 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
             }))
             .collect::<Vec<_>>()),
     );
+    if !sol.time_scan.is_empty() {
+        c.extra.insert(
+            "time_scan".into(),
+            serde_json::json!(sol
+                .time_scan
+                .iter()
+                .map(|s| serde_json::json!({
+                    "span": s.span,
+                    "cost": s.cost,
+                    "stopped": s.stopped,
+                }))
+                .collect::<Vec<_>>()),
+        );
+    }
     c.extra.insert(
         "start".into(),
         serde_json::json!({

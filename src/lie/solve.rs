@@ -305,6 +305,10 @@ pub struct LieSolution<M: Model> {
     /// The routes tried, in order (the last is this solution's, unless it is a partial
     /// result).
     pub routes: Vec<RouteReport>,
+    /// The value function `J*(T)` of fixed-time solves, when the time stage of a free-time
+    /// problem stopped and every sample failed to lead to a free-time solution (the evidence;
+    /// empty otherwise).
+    pub time_scan: Vec<TimeSample>,
 }
 
 impl<M: Model> std::fmt::Debug for LieSolution<M> {
@@ -316,6 +320,7 @@ impl<M: Model> std::fmt::Debug for LieSolution<M> {
             .field("stages", &self.stages)
             .field("tolerance", &self.tolerance)
             .field("routes", &self.routes)
+            .field("time_scan", &self.time_scan)
             .finish_non_exhaustive()
     }
 }
@@ -659,6 +664,7 @@ impl<M: Model> Homotopy<'_, M> {
             stages: self.stages.clone(),
             tolerance: self.tolerance,
             routes: Vec::new(),
+            time_scan: Vec::new(),
         }
     }
 
@@ -1203,16 +1209,52 @@ pub fn solve<M: Model>(
             }),
         }
     }
+    let mut scan = None;
+    if let LieSolveError::StageFailed {
+        stage: "delta" | "free-time start",
+        ..
+    } = &first
+    {
+        let clock = std::time::Instant::now();
+        events(&Event::RouteStarted {
+            route: TIME_SCAN,
+            after: &first.to_string(),
+        });
+        match time_scan(problem, options, events) {
+            Ok(mut sol) => {
+                routes.push(RouteReport {
+                    route: TIME_SCAN,
+                    stopped: None,
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                sol.routes = routes;
+                return Ok(sol);
+            }
+            Err(found) => {
+                routes.push(RouteReport {
+                    route: TIME_SCAN,
+                    stopped: Some(found.finding.clone()),
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                scan = Some(found);
+            }
+        }
+    }
     Err(match first {
         LieSolveError::StageFailed {
             stage,
             parameter,
             reached,
             target,
-            reason,
+            mut reason,
             mut partial,
         } => {
             partial.routes = routes;
+            if let Some(scan) = scan {
+                reason.push_str("; ");
+                reason.push_str(&scan.finding);
+                partial.time_scan = scan.samples;
+            }
             LieSolveError::StageFailed {
                 stage,
                 parameter,
@@ -1311,6 +1353,12 @@ pub fn alternatives<M: Model>(
         LieSolveError::StageFailed {
             stage: "polish", ..
         } => None,
+        // The time stage: the value function J*(T) of fixed-time solves is the evidence
+        // ([`solve`] scans it after the routes).
+        LieSolveError::StageFailed {
+            stage: "delta" | "free-time start",
+            ..
+        } => Some(Vec::new()),
         LieSolveError::StageFailed { stage, partial, .. } => {
             let mut r = vec![joint];
             if matches!(*stage, "gamma" | "beta" | "eta") {
@@ -1325,6 +1373,194 @@ pub fn alternatives<M: Model>(
         | LieSolveError::ConstraintRoute(_)
         | LieSolveError::Unsupported(_) => None,
     }
+}
+
+/// The name of the value-function route of a free-time problem (module docs).
+pub const TIME_SCAN: &str = "fixed-time scan";
+
+/// The terminal times of the value-function scan, as multiples of the problem's `b_p − a`
+/// (the desired path is the problem's, also beyond its own interval).
+pub const TIME_SCAN_FACTORS: [f64; 9] = [0.125, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0];
+
+/// Fewest verified samples from which the scan calls `J*(T)` monotone.
+const TIME_SCAN_MIN_SOLVED: usize = 3;
+
+/// One sample of the value function `J*(T)`: the fixed-time problem with `b − a = T`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TimeSample {
+    /// `T = b − a`.
+    pub span: f64,
+    /// The verified optimal cost `J*(T)` (the time weight's `δ T` included), or `None`.
+    pub cost: Option<f64>,
+    /// Why there is no cost (the solve stopped, or its solution failed its checks).
+    pub stopped: Option<String>,
+}
+
+/// What the value-function scan found when it could not lead to a free-time solution.
+struct TimeScanFinding {
+    samples: Vec<TimeSample>,
+    finding: String,
+}
+
+/// The value-function route of a free-time problem whose time stage stopped: solve the
+/// fixed-time problems `T = f (b_p − a)`, `f` in [`TIME_SCAN_FACTORS`], at the target weights;
+/// if the verified costs `J*(T)` have an interior minimum, solve the free-time problem from
+/// the fixed-time solution there (the time weight at its target, `T` unknown), else say where
+/// the optimal time lies (below the shortest or above the longest `T` solved, with the samples
+/// as evidence).
+fn time_scan<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, TimeScanFinding> {
+    let t_p = problem.terminal.initial() - problem.t0;
+    let fixed_options = SolveOptions {
+        max_routes: options.max_routes.min(2),
+        ..options.clone()
+    };
+    let mut samples = Vec::new();
+    let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
+    for f in TIME_SCAN_FACTORS {
+        let span = f * t_p;
+        let mut fixed = problem.clone();
+        fixed.terminal = TerminalTime::Fixed(problem.t0 + span);
+        // The routes inside each solve are its own business (the samples are reported).
+        let sample = match solve(&fixed, &fixed_options, &mut |_| {}) {
+            Ok(sol) => {
+                let checked = super::verify::verify_solution(&sol);
+                if checked.verification.passed() {
+                    let cost = checked.diagnostics.cost;
+                    solved.push((span, cost, sol));
+                    TimeSample {
+                        span,
+                        cost: Some(cost),
+                        stopped: None,
+                    }
+                } else {
+                    TimeSample {
+                        span,
+                        cost: None,
+                        stopped: Some(format!("unverified: {:?}", checked.verification.verdict())),
+                    }
+                }
+            }
+            Err(e) => TimeSample {
+                span,
+                cost: None,
+                stopped: Some(e.to_string()),
+            },
+        };
+        samples.push(sample);
+    }
+    let listed = samples
+        .iter()
+        .map(|s| match s.cost {
+            Some(j) => format!("J*({:.4}) = {j:.6}", s.span),
+            None => format!("J*({:.4}) = -", s.span),
+        })
+        .collect::<Vec<_>>()
+        .join(", ");
+    let Some(best) = (0..solved.len()).min_by(|&i, &j| solved[i].1.total_cmp(&solved[j].1)) else {
+        return Err(TimeScanFinding {
+            samples,
+            finding: format!(
+                "no fixed-time problem with b - a in [{:.4}, {:.4}] solved either ({listed})",
+                TIME_SCAN_FACTORS[0] * t_p,
+                TIME_SCAN_FACTORS[TIME_SCAN_FACTORS.len() - 1] * t_p
+            ),
+        });
+    };
+    let (lo, hi) = (solved[0].0, solved[solved.len() - 1].0);
+    let interior = best > 0 && best + 1 < solved.len();
+    if !interior && solved.len() < TIME_SCAN_MIN_SOLVED {
+        return Err(TimeScanFinding {
+            samples,
+            finding: format!(
+                "too few fixed-time problems solved ({} of {}) to locate the optimal terminal \
+                 time ({listed})",
+                solved.len(),
+                TIME_SCAN_FACTORS.len()
+            ),
+        });
+    }
+    if !interior {
+        let (side, bound) = if best == 0 {
+            (
+                "increases",
+                format!("below {lo:.4}, the shortest b - a solved"),
+            )
+        } else {
+            (
+                "decreases",
+                format!("above {hi:.4}, the longest b - a solved"),
+            )
+        };
+        return Err(TimeScanFinding {
+            samples,
+            finding: format!(
+                "the optimal terminal time is outside the range where fixed-time problems \
+                 solve: the fixed-time value function J*(T) {side} with T = b - a over \
+                 [{lo:.4}, {hi:.4}] ({} samples), so the optimal b - a lies {bound} ({listed})",
+                solved.len()
+            ),
+        });
+    }
+    // An interior minimum: the free-time problem from the fixed-time solution there.
+    let (span, cost, sol) = solved.swap_remove(best);
+    match free_from_fixed(problem, options, sol, events) {
+        Ok(free) => Ok(free),
+        Err(e) => Err(TimeScanFinding {
+            samples,
+            finding: format!(
+                "the fixed-time value function J*(T) has its smallest sample at T = b - a = \
+                 {span:.4} (J = {cost:.6}; {listed}), but the free-time solve from there \
+                 stopped: {e}"
+            ),
+        }),
+    }
+}
+
+/// The free-time problem solved from `fixed`, a solution of the same problem at a fixed
+/// terminal time (the target weights): `T` becomes an unknown.
+fn free_from_fixed<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    fixed: LieSolution<M>,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let span = fixed.t_span;
+    let mu = LieBvp::new(&fixed.problem)
+        .mu_index()
+        .map_or(0.0, |i| fixed.bvp.p[i]);
+    let mut h = Homotopy {
+        problem,
+        params: problem.params().to_vec(),
+        omega_b: problem.omega_b.clone(),
+        level_shift: 0.0,
+        fixed_span: None,
+        t_span: span,
+        solution: fixed.bvp,
+        start: fixed.start,
+        stages: fixed.stages,
+        tolerance: options.tol,
+        tracking: problem.desired.clone(),
+    };
+    let free = h.bvp_with(h.params.clone(), None);
+    let guess = Guess::from_solution(&h.solution).with_parameters(free.parameters(span, mu));
+    let bvp_opts = |tol: f64| bvp::Options {
+        tol,
+        max_nodes: options.max_nodes,
+        ..Default::default()
+    };
+    h.single_solve(
+        "free time from J*(T)",
+        &guess,
+        &bvp_opts(options.continuation_tol),
+        events,
+    )?;
+    let guess = Guess::from_solution(&h.solution);
+    h.single_solve("polish", &guess, &bvp_opts(options.tol), events)?;
+    Ok(h.snapshot())
 }
 
 /// Solve `problem` along one route (module docs).
