@@ -384,7 +384,13 @@ pub struct SolverSection {
     pub max_nodes: Option<usize>,
     /// Start case override: "auto" (default), "desired", "desired-gamma-from-zero", "segment".
     pub start: Option<String>,
+    /// How many homotopy routes may be tried, the default included (1 to [`MAX_ROUTES`]).
+    pub max_routes: Option<usize>,
 }
+
+/// Cap on `solver.max_routes`: every route listed by `lie::solve::alternatives` after the
+/// longest list (a failed start: 4 others) with room to spare.
+pub const MAX_ROUTES: usize = 10;
 
 /// A problem file turned into something to solve.
 #[derive(Debug, Clone)]
@@ -2174,6 +2180,19 @@ impl ProblemFile {
                 (3, MAX_NODES),
                 "node cap of every BVP solve, e.g. 20000",
             )?;
+        }
+        if let Some(n) = s.max_routes {
+            if !(1..=MAX_ROUTES).contains(&n) {
+                return Err(ConfigError::OutOfRange {
+                    field: "solver.max_routes".into(),
+                    value: n.to_string(),
+                    requirement: format!(
+                        "must be in [1, {MAX_ROUTES}]: the homotopy routes tried, the default \
+                         included (1 tries only the default; there are at most 4 others)"
+                    ),
+                });
+            }
+            o.max_routes = n;
         }
         if let Some(start) = &s.start {
             o.start = match start.as_str() {

@@ -735,3 +735,20 @@ fn a_start_from_the_desired_path_needs_gamma() {
     assert_contains(&msg, &["cost.gamma = 0", "\"segment\""]);
     config::from_toml_str(&doc.replace("\"desired\"", "\"segment\"")).unwrap();
 }
+
+#[test]
+fn max_routes_is_bounded_and_reaches_the_solver() {
+    for bad in ["max_routes = 0", "max_routes = 11", "max_routes = 100000000000"] {
+        let (_, msg) = error(&with_solver(bad), "solver.max_routes");
+        assert!(msg.contains("[1, 10]"), "{bad}: {msg}");
+    }
+    let (_, msg) = error(&with_solver("max_routes = -1"), "solver.max_routes");
+    assert!(!msg.is_empty());
+    let loaded = suslov::config::from_toml_str(&with_solver("max_routes = 1")).expect("valid");
+    assert_eq!(loaded.options.max_routes, 1);
+    let loaded = suslov::config::from_toml_str(&with_solver("")).expect("valid");
+    assert_eq!(
+        loaded.options.max_routes,
+        suslov::SolveOptions::default().max_routes
+    );
+}
