@@ -389,7 +389,7 @@ pub struct SolverSection {
 }
 
 /// Cap on `solver.max_routes`: every route listed by `lie::solve::alternatives` after the
-/// longest list (a failed start: 4 others) with room to spare.
+/// longest list (a failed start: 5 others) with room to spare.
 pub const MAX_ROUTES: usize = 10;
 
 /// A problem file turned into something to solve.
@@ -2188,7 +2188,7 @@ impl ProblemFile {
                     value: n.to_string(),
                     requirement: format!(
                         "must be in [1, {MAX_ROUTES}]: the homotopy routes tried, the default \
-                         included (1 tries only the default; there are at most 4 others)"
+                         included (1 tries only the default; there are at most 5 others)"
                     ),
                 });
             }

@@ -738,7 +738,11 @@ fn a_start_from_the_desired_path_needs_gamma() {
 
 #[test]
 fn max_routes_is_bounded_and_reaches_the_solver() {
-    for bad in ["max_routes = 0", "max_routes = 11", "max_routes = 100000000000"] {
+    for bad in [
+        "max_routes = 0",
+        "max_routes = 11",
+        "max_routes = 100000000000",
+    ] {
         let (_, msg) = error(&with_solver(bad), "solver.max_routes");
         assert!(msg.contains("[1, 10]"), "{bad}: {msg}");
     }

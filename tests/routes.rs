@@ -147,3 +147,37 @@ fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
     assert_eq!(last.route, TIME_SCAN);
     assert!(last.stopped.is_some());
 }
+
+/// The paper's eta = 1 problem with a wide sigmoid (`width = 0.1`): the desired path leaves
+/// the energy ellipsoid by more than the third case allows, so the default start (tracking from
+/// 0) fails to converge; the desired-start route (the full tracking weight from the start, the
+/// projection of the desired path as Omega_p) solves it, verified, near the paper's b.
+#[test]
+fn a_wide_spiral_sigmoid_solves_by_the_desired_start() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/paper_eta1.toml"),
+    )
+    .expect("the paper's file");
+    assert!(text.contains("width = 0.01\n"));
+    let loaded = suslov::config::from_toml_str(&text.replace("width = 0.01\n", "width = 0.1\n"))
+        .unwrap_or_else(|e| panic!("{e}"));
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
+    let routes: Vec<(&str, bool)> = sol
+        .routes
+        .iter()
+        .map(|r| (r.route, r.stopped.is_none()))
+        .collect();
+    assert_eq!(routes, [("default", false), ("desired start", true)]);
+    assert!(sol.routes[0]
+        .stopped
+        .as_deref()
+        .is_some_and(|r| r.contains("analytic start")));
+    assert_eq!(sol.start.case, 3);
+    assert!(lie::verify_solution(&sol).verification.passed());
+    assert!(
+        (sol.terminal_time() - 11.36).abs() < 0.05,
+        "{}",
+        sol.terminal_time()
+    );
+}

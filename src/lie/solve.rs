@@ -44,9 +44,11 @@
 //!
 //! **Routes.** The order above, from the start the paper's cases choose, is the default
 //! [`Route`]. When it stops, [`solve`] does not give up: it tries other routes, chosen by where
-//! the default stopped ([`alternatives`]): after a failed start, the other analytic start, a
-//! finer initial mesh, a smaller and a larger `β_m`; after a stalled weight stage, all weights
-//! continued jointly along one parameter, β before tracking, the other start, a finer mesh.
+//! the default stopped ([`alternatives`]): after a failed start, the other analytic starts
+//! (with tracking, the full tracking weight from the start even when the desired path leaves
+//! the level set), a finer initial mesh, a smaller and a larger `β_m`; after a stalled weight
+//! stage, all weights continued jointly along one parameter, β before tracking, the starts
+//! not taken, a finer mesh.
 //! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
 //! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
 
@@ -1171,7 +1173,10 @@ pub fn solve<M: Model>(
         }
         Err(e) => e,
     };
-    let Some(others) = alternatives(&first, options) else {
+    let tracking = M::WEIGHTS
+        .iter()
+        .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] > 0.0);
+    let Some(others) = alternatives(&first, options, tracking) else {
         return Err(first);
     };
     routes.push(RouteReport {
@@ -1281,15 +1286,17 @@ pub fn solve<M: Model>(
 /// The routes to try after the default route stopped with `error`, in order, or `None` when
 /// no other route can help (an invalid problem, a missing role, an unsupported feature, a bug).
 ///
-/// - A failed start: the other analytic start (unless the options fix it), a 4 times finer
-///   initial mesh, `β_m` 10 times smaller, and 10 times larger.
+/// - A failed start: with a tracking weight `tracking > 0`, the desired start (the full
+///   tracking weight from the start), the segment start (both unless the options fix the
+///   start), a 4 times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
 /// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
-///   other start, the finer mesh.
+///   starts the default did not take, the finer mesh.
 /// - Any later stage: the weights jointly (a different point to start the later stages
 ///   from), the finer mesh.
 pub fn alternatives<M: Model>(
     error: &LieSolveError<M>,
     options: &SolveOptions,
+    tracking: bool,
 ) -> Option<Vec<Route>> {
     let route = |name, start, order, beta_m_factor, mesh_factor| Route {
         name,
@@ -1298,24 +1305,26 @@ pub fn alternatives<M: Model>(
         beta_m_factor,
         mesh_factor,
     };
-    let other_start = |chosen: &StartChoice| -> Option<Route> {
+    let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
+    let desired = start_route("desired start", StartStrategy::Desired);
+    let segment = start_route("segment start", StartStrategy::Segment);
+    // The starts the default did not take (only when the options leave the choice open).
+    let other_starts = |chosen: &StartChoice| -> Vec<Route> {
         if options.start != StartStrategy::Auto {
-            return None;
+            return Vec::new();
         }
-        let strategy = if chosen.omega_p == "projected desired path" {
-            StartStrategy::Segment
-        } else if chosen.case == 2 {
-            StartStrategy::DesiredGammaFromZero
-        } else {
-            return None;
-        };
-        Some(route(
-            "other start",
-            Some(strategy),
-            StageOrder::Sequential,
-            1.0,
-            1,
-        ))
+        match (chosen.omega_p == "projected desired path", chosen.case) {
+            (true, 3) => vec![segment],
+            (true, _) => vec![desired, segment],
+            (false, 2) => vec![
+                desired,
+                start_route(
+                    "desired start, tracking from 0",
+                    StartStrategy::DesiredGammaFromZero,
+                ),
+            ],
+            (false, _) => Vec::new(),
+        }
     };
     let finer = route("finer mesh", None, StageOrder::Sequential, 1.0, 4);
     let joint = route("joint weights", None, StageOrder::Joint, 1.0, 1);
@@ -1323,13 +1332,13 @@ pub fn alternatives<M: Model>(
         LieSolveError::Start(_) | LieSolveError::Bvp(_) => {
             let mut r = Vec::new();
             if options.start == StartStrategy::Auto {
-                r.push(route(
-                    "segment start",
-                    Some(StartStrategy::Segment),
-                    StageOrder::Sequential,
-                    1.0,
-                    1,
-                ));
+                // With tracking: the full tracking weight from the start, as the paper's third
+                // case, also when the desired path leaves the level set (the start is its
+                // projection); it pins Omega down where the weight from 0 does not.
+                if tracking {
+                    r.push(desired);
+                }
+                r.push(segment);
             }
             r.push(finer);
             r.push(route(
@@ -1363,7 +1372,7 @@ pub fn alternatives<M: Model>(
             let mut r = vec![joint];
             if matches!(*stage, "gamma" | "beta" | "eta") {
                 r.push(route("beta first", None, StageOrder::BetaFirst, 1.0, 1));
-                r.extend(other_start(&partial.start));
+                r.extend(other_starts(&partial.start));
             }
             r.push(finer);
             Some(r)
