@@ -181,6 +181,7 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
     let lie::verify::Verified {
         diagnostics: d,
         reintegration,
+        open_loop,
         verification,
     } = lie::verify_solution(sol);
     let verified = verification.passed();
@@ -236,6 +237,21 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
         c.extra
             .insert("reintegration_error".into(), serde_json::json!(e));
     }
+    if let Ok(r) = &reintegration {
+        c.extra
+            .insert("reintegration_windows".into(), serde_json::json!(r.windows));
+    }
+    // Not judged: the open-loop re-integration from Omega_a over [a, b] (the motion's
+    // sensitivity; lie::checks::REINTEGRATION_WINDOW_ANGLE).
+    match &open_loop {
+        Ok(r) => c.extra.insert(
+            "reintegration_open_loop_max_diff".into(),
+            serde_json::json!(finite(r.max_abs_diff)),
+        ),
+        Err(e) => c
+            .extra
+            .insert("reintegration_open_loop_error".into(), serde_json::json!(e)),
+    };
     c.extra.insert(
         "energy".into(),
         serde_json::json!(if sol.problem.conserves_energy() {

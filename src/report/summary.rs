@@ -65,7 +65,10 @@ pub struct CaseSummary {
     pub verification: Option<VerificationSummary>,
     /// A-posteriori check: largest difference between the solution and the states obtained by
     /// re-integrating the equations of motion as an initial value problem with the computed
-    /// control (absent if not done).
+    /// control (absent if not done). For the generic layer's solutions this is the windowed
+    /// re-integration the `reintegration` check judges (restarted from the solution every
+    /// radian of rotation, `lie::checks::REINTEGRATION_WINDOW_ANGLE`); the open-loop difference is in
+    /// `extra.reintegration_open_loop_max_diff`.
     #[serde(
         default,
         skip_serializing_if = "Option::is_none",
