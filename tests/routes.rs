@@ -181,3 +181,26 @@ fn a_wide_spiral_sigmoid_solves_by_the_desired_start() {
         sol.terminal_time()
     );
 }
+
+/// Corpus problem fast-078 (gamma = 0, free time, |Omega_a| = 21.7): the default route stops
+/// in the gamma stage; the joint route reaches the target weights, where the direct polish at
+/// 1e-8 fails and the polish reaches it by stepping the tolerance down from the continuation's.
+#[test]
+fn a_polish_the_direct_solve_misses_is_reached_in_tolerance_steps() {
+    let loaded = hard("fast_078_polish_steps.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
+    let routes: Vec<(&str, bool)> = sol
+        .routes
+        .iter()
+        .map(|r| (r.route, r.stopped.is_none()))
+        .collect();
+    assert_eq!(routes, [("default", false), ("joint weights", true)]);
+    let polish = sol.stages.last().expect("stages");
+    assert_eq!(polish.name, "polish");
+    assert!(polish.outcome.is_completed());
+    // The direct solve, then 1e-6 and 1e-8 from the continuation's 1e-4.
+    assert_eq!(polish.steps, 3, "{polish:?}");
+    assert_eq!(polish.failures_recovered, 1);
+    assert!(lie::verify_solution(&sol).verification.passed());
+}

@@ -1012,6 +1012,83 @@ impl<M: Model> Homotopy<'_, M> {
         Ok(())
     }
 
+    /// The final solve at the requested tolerance `tol` from the current solution. When the
+    /// direct solve fails, the tolerance is stepped down by factors of 100 from `from_tol`
+    /// (the continuation's), each solve starting from the last: a solution that the direct
+    /// polish misses (a sensitive one, near the end of a continuation) is reached in steps.
+    fn polish(
+        &mut self,
+        tol: f64,
+        from_tol: f64,
+        options: &dyn Fn(f64) -> bvp::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<(), LieSolveError<M>> {
+        let clock = std::time::Instant::now();
+        let name = "polish";
+        events(&Event::StageStarted {
+            name,
+            from: 0.0,
+            to: 0.0,
+        });
+        let mut newton = 0;
+        let mut attempt = |h: &mut Self, t: f64, events: &mut dyn FnMut(&Event)| {
+            let problem = h.bvp_with(h.params.clone(), h.fixed_span);
+            let guess = Guess::from_solution(&h.solution);
+            let sol = bvp::solve_with_progress(&problem, &guess, &options(t), &mut |progress| {
+                events(&Event::Bvp {
+                    stage: name,
+                    lambda: 0.0,
+                    progress,
+                })
+            })?;
+            newton += sol.stats.newton_iterations;
+            Ok::<_, LieSolveError<M>>(sol)
+        };
+        let direct = attempt(self, tol, events)?;
+        let mut failure = None;
+        let mut steps = 1;
+        if direct.is_success() {
+            self.solution = direct;
+        } else {
+            let mut t = from_tol;
+            while failure.is_none() && t > tol * (1.0 + 1e-9) {
+                t = (t * 1e-2).max(tol);
+                steps += 1;
+                let sol = attempt(self, t, events)?;
+                if sol.is_success() {
+                    self.solution = sol;
+                } else {
+                    failure = Some(format!(
+                        "{:?}: {} (the direct solve at {tol:e} failed too; stepping the \
+                         tolerance down from {from_tol:e}, the solve at {t:e} failed)",
+                        sol.status,
+                        sol.status.message()
+                    ));
+                }
+            }
+        }
+        if self.fixed_span.is_none() {
+            self.t_span = self.solution.p[SPAN];
+        }
+        let report = StageReport {
+            name,
+            parameter: "-",
+            from: 0.0,
+            to: 0.0,
+            steps,
+            failures_recovered: usize::from(steps > 1 && failure.is_none()),
+            newton_iterations: newton,
+            nodes: self.solution.num_nodes(),
+            seconds: clock.elapsed().as_secs_f64(),
+            outcome: match failure {
+                None => StageOutcome::Completed,
+                Some(reason) => StageOutcome::Stopped { reason },
+            },
+            folds: Vec::new(),
+        };
+        self.record(report, "-", f64::NAN, events)
+    }
+
     /// One BVP solve with the current constants from `guess`.
     fn single_solve(
         &mut self,
@@ -1176,14 +1253,19 @@ pub fn solve<M: Model>(
     let tracking = M::WEIGHTS
         .iter()
         .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] > 0.0);
-    let Some(others) = alternatives(&first, options, tracking) else {
-        return Err(first);
-    };
-    routes.push(RouteReport {
+    let default_report = RouteReport {
         route: Route::DEFAULT.name,
         stopped: Some(first.to_string()),
         seconds: clock.elapsed().as_secs_f64(),
-    });
+    };
+    let Some(others) = alternatives(&first, options, tracking) else {
+        let mut first = first;
+        if let LieSolveError::StageFailed { partial, .. } = &mut first {
+            partial.routes = vec![default_report];
+        }
+        return Err(first);
+    };
+    routes.push(default_report);
     for route in others
         .into_iter()
         .take(options.max_routes.saturating_sub(1))
@@ -1567,8 +1649,7 @@ fn free_from_fixed<M: Model>(
         &bvp_opts(options.continuation_tol),
         events,
     )?;
-    let guess = Guess::from_solution(&h.solution);
-    h.single_solve("polish", &guess, &bvp_opts(options.tol), events)?;
+    h.polish(options.tol, options.continuation_tol, &bvp_opts, events)?;
     Ok(h.snapshot())
 }
 
@@ -1881,7 +1962,6 @@ fn solve_route<M: Model>(
             }
         }
     }
-    let guess = Guess::from_solution(&h.solution);
-    h.single_solve("polish", &guess, &bvp_opts(options.tol), events)?;
+    h.polish(options.tol, options.continuation_tol, &bvp_opts, events)?;
     Ok(h.snapshot())
 }
