@@ -91,6 +91,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         verdict: Verdict::Unexplained(m),
         seconds,
         check: None,
+        route: None,
     };
     let Some(status) = status else {
         return unexplained(format!("timeout after {} s", timeout.as_secs()), wall);
@@ -113,6 +114,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         verdict,
         seconds,
         check,
+        route: corpus::last_route(&out),
     }
 }
 
@@ -307,6 +309,7 @@ fn main() {
     let mut rows: BTreeMap<String, Row> = BTreeMap::new();
     let mut total = Row::default();
     let mut reasons: BTreeMap<String, usize> = BTreeMap::new();
+    let mut solved_by: BTreeMap<String, usize> = BTreeMap::new();
     let mut unresolved = 0usize;
     let (mut unverified_checked, mut unverified_passing) = (0usize, 0usize);
     let mut worst = (0.0f64, 0.0f64, 0.0f64);
@@ -315,6 +318,10 @@ fn main() {
         total.add(p, o);
         if let Verdict::Explained { key, .. } = &o.verdict {
             *reasons.entry(key.clone()).or_default() += 1;
+        }
+        if o.verdict == Verdict::Solved {
+            let route = o.route.clone().unwrap_or_else(|| "(none listed)".into());
+            *solved_by.entry(route).or_default() += 1;
         }
         if let (Verdict::Explained { .. }, Some(c)) = (&o.verdict, &o.check) {
             unverified_checked += 1;
@@ -370,6 +377,15 @@ fn main() {
         "Of the {unverified_checked} `unverified` solutions (the tool's own checks failed), \
          {unverified_passing} pass the independent check of their `trajectory.unverified.csv`.\n"
     );
+    let _ = writeln!(
+        r,
+        "Solved and verified, by the homotopy route that solved them:\n"
+    );
+    let _ = writeln!(r, "| route | problems |\n|---|---|");
+    for (k, c) in &solved_by {
+        let _ = writeln!(r, "| {k} | {c} |");
+    }
+    let _ = writeln!(r);
     let _ = writeln!(r, "Explained stops by stage (or check):\n");
     let _ = writeln!(r, "| stage | problems |\n|---|---|");
     for (k, c) in &reasons {

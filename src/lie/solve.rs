@@ -1471,7 +1471,7 @@ pub const TIME_SCAN: &str = "fixed-time scan";
 
 /// The terminal times of the value-function scan, as multiples of the problem's `b_p − a`
 /// (the desired path is the problem's, also beyond its own interval).
-pub const TIME_SCAN_FACTORS: [f64; 9] = [0.125, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0];
+pub const TIME_SCAN_FACTORS: &[f64] = &[0.125, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0];
 
 /// Fewest verified samples from which the scan calls `J*(T)` monotone.
 const TIME_SCAN_MIN_SOLVED: usize = 3;

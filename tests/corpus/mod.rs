@@ -808,6 +808,21 @@ pub struct Outcome {
     pub seconds: f64,
     /// The independent check of the written trajectory (of a converged case).
     pub check: Option<TrajectoryCheck>,
+    /// The homotopy route of the solution (`summary.json`'s `routes`, the last one), if the
+    /// summary lists one.
+    pub route: Option<String>,
+}
+
+/// The last route in `out/summary.json` (the one that solved a solved case).
+pub fn last_route(out: &Path) -> Option<String> {
+    let text = std::fs::read_to_string(out.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    v["cases"][0]["extra"]["routes"]
+        .as_array()?
+        .last()?
+        .get("route")?
+        .as_str()
+        .map(str::to_string)
 }
 
 /// How `run_solve` ended (the panic or error as text).
@@ -989,5 +1004,6 @@ pub fn solve_and_classify(p: &CorpusProblem, work: &Path) -> Outcome {
         verdict,
         seconds,
         check,
+        route: last_route(&out),
     }
 }
