@@ -204,3 +204,27 @@ fn a_polish_the_direct_solve_misses_is_reached_in_tolerance_steps() {
     assert_eq!(polish.failures_recovered, 1);
     assert!(lie::verify_solution(&sol).verification.passed());
 }
+
+/// A solution reached past a fold is certified in its summary (it could be a saddle): the
+/// summary of a solution whose stage record lists a fold carries the certificate's verdict;
+/// one without folds carries none.
+#[test]
+fn a_solution_past_a_fold_carries_its_certificate_in_the_summary() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml");
+    let loaded = suslov::config::load(&path).unwrap_or_else(|e| panic!("{e}"));
+    let mut sol = suslov::solve(&loaded.problem, &loaded.options, &mut |_| {}).expect("solves");
+    let plain = suslov::app::summarize("segment", &sol, 0.0);
+    assert!(!plain.extra.contains_key("after_fold"));
+    // As if the beta stage had gone round a fold at beta = 0.05.
+    let stage = sol
+        .generic
+        .stages
+        .iter_mut()
+        .find(|s| s.name == "beta")
+        .expect("a beta stage");
+    stage.folds.push(0.05);
+    let summary = suslov::app::summarize("segment", &sol, 0.0);
+    let after = &summary.extra["after_fold"];
+    assert_eq!(after["folds"], serde_json::json!([0.05]));
+    assert_eq!(after["verdict"], "Certified", "{after}");
+}

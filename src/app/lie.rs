@@ -293,6 +293,36 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
             }))
             .collect::<Vec<_>>()),
     );
+    // A solution reached past a fold may be a saddle or a maximizer: the second-order
+    // certificate says which (issue #12: no saddle passed off as a minimum).
+    let folds: Vec<f64> = sol
+        .stages
+        .iter()
+        .flat_map(|s| s.folds.iter().copied())
+        .collect();
+    if !folds.is_empty() {
+        use crate::ocp::{NewtonOptions, SecondOrderOptions};
+        let certified = lie::certify::certify(
+            sol,
+            &NewtonOptions::default(),
+            &SecondOrderOptions::default(),
+        );
+        c.extra.insert(
+            "after_fold".into(),
+            match certified {
+                Ok(cert) => serde_json::json!({
+                    "folds": folds,
+                    "verdict": format!("{:?}", cert.verdict()),
+                    "sentence": cert.verdict().sentence(),
+                }),
+                Err(e) => serde_json::json!({
+                    "folds": folds,
+                    "verdict": "none",
+                    "sentence": format!("the certificate could not be computed: {e}"),
+                }),
+            },
+        );
+    }
     if !sol.time_scan.is_empty() {
         c.extra.insert(
             "time_scan".into(),
