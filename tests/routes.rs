@@ -228,3 +228,25 @@ fn a_solution_past_a_fold_carries_its_certificate_in_the_summary() {
     assert_eq!(after["folds"], serde_json::json!([0.05]));
     assert_eq!(after["verdict"], "Certified", "{after}");
 }
+
+/// A start that fails on every route (the paper's data held for 90 time units after the
+/// spiral, fixed b = 100): the error is the start's, and its message lists every other route
+/// tried with why it stopped.
+#[test]
+fn a_start_that_fails_on_every_route_lists_them_all() {
+    let loaded = hard("paper_T100_fixed.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("no route starts");
+    let LieSolveError::Start(message) = err else {
+        panic!("the start fails on every route: {err}");
+    };
+    for route in [
+        "desired start: ",
+        "segment start: ",
+        "finer mesh: ",
+        "smaller beta_m: ",
+        "larger beta_m: ",
+    ] {
+        assert!(message.contains(route), "{route} not in {message}");
+    }
+}

@@ -351,8 +351,9 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
     assert_eq!(finished.len(), 1);
     assert_eq!(finished[0].0, "start");
     assert!(!finished[0].1.is_completed());
-    // Every route: each start says it failed, and the error lists the routes tried (the
-    // forced start is kept: no "segment start" route).
+    // Every route: the forced start is kept (no "segment start" route); the larger beta_m's
+    // start succeeds and that route stops in a later stage, the furthest any route got, so
+    // its stop is the error, and every route tried is listed with why it stopped.
     let options = SolveOptions {
         max_routes: 1 + 3,
         ..options
@@ -363,21 +364,43 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
             finished.push((r.name, r.outcome.clone()));
         }
     });
-    let Err(SolveError::Start(message)) = result else {
-        panic!("every route fails to start");
-    };
-    // Four starts; the larger beta_m's succeeds and that route stops in a later stage.
     let starts: Vec<bool> = finished
         .iter()
         .filter(|(name, _)| *name == "start")
         .map(|(_, o)| o.is_completed())
         .collect();
     assert_eq!(starts, [false, false, false, true], "{finished:?}");
-    assert!(!finished.last().expect("events").1.is_completed());
-    for route in ["finer mesh", "smaller beta_m", "larger beta_m"] {
-        assert!(message.contains(&format!("{route}: ")), "{message}");
-    }
-    assert!(!message.contains("segment start"), "{message}");
+    let (last, outcome) = finished.last().expect("events");
+    assert!(!outcome.is_completed());
+    let Err(SolveError::StageFailed {
+        stage,
+        reason,
+        partial,
+        ..
+    }) = result
+    else {
+        panic!("the furthest route stops in a stage");
+    };
+    assert_eq!(stage, *last);
+    assert!(
+        reason.ends_with("[on route 'larger beta_m', the furthest of the routes tried]"),
+        "{reason}"
+    );
+    let routes: Vec<(&str, bool)> = partial
+        .generic
+        .routes
+        .iter()
+        .map(|r| (r.route, r.stopped.is_some()))
+        .collect();
+    assert_eq!(
+        routes,
+        [
+            ("default", true),
+            ("finer mesh", true),
+            ("smaller beta_m", true),
+            ("larger beta_m", true)
+        ]
+    );
 }
 
 /// `suslov certify` and `controllability --along` use the solution they get; an unverified

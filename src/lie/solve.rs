@@ -1229,9 +1229,10 @@ fn constraint_free<M: Model>(problem: &Problem<M>) -> Result<Problem<M>, LieSolv
 
 /// Solve `problem` from the analytic singular solution through the staged homotopy: the
 /// default route first, then, if it stops, the alternatives chosen by where it stopped
-/// ([`alternatives`]), until one solves the problem. When every route stops, the default
-/// route's error is returned (its partial result, if any, lists every route tried in
-/// [`LieSolution::routes`]; a failed start lists them in its message).
+/// ([`alternatives`]), until one solves the problem. When every route stops, the error of the
+/// route that got furthest (most stages completed; the default on a tie) is returned, its
+/// partial result listing every route tried in [`LieSolution::routes`] (a start that failed on
+/// every route lists them in its message).
 pub fn solve<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -1266,6 +1267,20 @@ pub fn solve<M: Model>(
         return Err(first);
     };
     routes.push(default_report);
+    // The error reported when every route stops: the one that got furthest (the most stages
+    // completed; the earlier route on a tie), so the evidence is that of the furthest point.
+    let progress = |e: &LieSolveError<M>| match e {
+        LieSolveError::StageFailed { partial, .. } => {
+            1 + partial
+                .stages
+                .iter()
+                .filter(|s| s.outcome.is_completed())
+                .count()
+        }
+        _ => 0,
+    };
+    let mut best_route = Route::DEFAULT.name;
+    let mut first = first;
     for route in others
         .into_iter()
         .take(options.max_routes.saturating_sub(1))
@@ -1289,11 +1304,16 @@ pub fn solve<M: Model>(
                 sol.routes = routes;
                 return Ok(sol);
             }
-            Err(e) => routes.push(RouteReport {
-                route: route.name,
-                stopped: Some(e.to_string()),
-                seconds: clock.elapsed().as_secs_f64(),
-            }),
+            Err(e) => {
+                routes.push(RouteReport {
+                    route: route.name,
+                    stopped: Some(e.to_string()),
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                if progress(&e) > progress(&first) {
+                    (first, best_route) = (e, route.name);
+                }
+            }
         }
     }
     let mut scan = None;
@@ -1341,6 +1361,11 @@ pub fn solve<M: Model>(
                 reason.push_str("; ");
                 reason.push_str(&scan.finding);
                 partial.time_scan = scan.samples;
+            }
+            if best_route != Route::DEFAULT.name {
+                reason.push_str(&format!(
+                    " [on route '{best_route}', the furthest of the routes tried]"
+                ));
             }
             LieSolveError::StageFailed {
                 stage,
