@@ -214,7 +214,8 @@ fn the_start_case_can_be_overridden() {
     // Forcing the paper's second case (gamma_c from 0) on the paper's problem: the start BVP
     // at gamma_c = 0, beta_m = 1e-3 does not converge from the singular solution (the
     // tracking term is what pins Omega down); the automatic choice (third case) does. The
-    // override must either work with the case it names or fail with a clean start error.
+    // override must either work with the case it names or stop cleanly: at the start, or
+    // (another route having passed the start) in a later stage.
     use suslov::suslov::solve::{SolveError, StartStrategy};
     let problem = paper::problem(0.01);
     for (strategy, case, omega_p) in [
@@ -241,6 +242,15 @@ fn the_start_case_can_be_overridden() {
             Err(SolveError::Start(msg)) => {
                 assert_ne!(strategy, StartStrategy::Desired, "{msg}");
                 assert!(msg.contains("did not converge"), "{msg}");
+            }
+            // Another route (a larger beta_m) passed the start and stopped later: the
+            // furthest stop is reported, with its route.
+            Err(SolveError::StageFailed { reason, .. }) => {
+                assert_ne!(strategy, StartStrategy::Desired, "{reason}");
+                assert!(
+                    reason.contains("the furthest of the routes tried"),
+                    "{reason}"
+                );
             }
             Err(e) => panic!("{strategy:?}: unexpected {e}"),
         }
