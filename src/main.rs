@@ -310,7 +310,7 @@ impl Reporter {
                     bar.finish_and_clear();
                 }
                 self.line(format!(
-                    "case {}: {}; b = {:.4}, cost = {:.6}, max|<Om,xi>| = {:.1e}, nodes = {}, {:.2} s",
+                    "case {}: {}; b = {:.4}, cost = {:.6}, constraint residual max|<Om,xi> - c| = {:.1e}, nodes = {}, {:.2} s",
                     c.name, c.status, c.terminal_time, c.cost, c.max_abs_constraint, c.mesh_nodes, c.wall_seconds
                 ));
             }
