@@ -24,7 +24,7 @@ fn norm(v: &[f64]) -> f64 {
 }
 
 #[test]
-#[ignore]
+#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn experiment() {
     let ids: Vec<String> = std::env::var("IDS")
         .unwrap_or("fast-018".into())
@@ -159,7 +159,7 @@ fn experiment() {
 }
 
 #[test]
-#[ignore]
+#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn inspect() {
     use suslov::lie::verify::reintegrate_in_windows;
     let id = std::env::var("IDS").unwrap_or("long-134".into());
@@ -215,7 +215,7 @@ fn inspect() {
 }
 
 #[test]
-#[ignore]
+#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn table() {
     let files = [
         "paper_eta1.toml",
@@ -263,7 +263,7 @@ fn table() {
 }
 
 #[test]
-#[ignore]
+#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn loose() {
     let files = [
         "paper_eta1.toml",
