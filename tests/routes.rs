@@ -250,3 +250,33 @@ fn a_start_that_fails_on_every_route_lists_them_all() {
         assert!(message.contains(route), "{route} not in {message}");
     }
 }
+
+/// Corpus problem samples-071: the first free-time solve ("free-time start") fails. Its
+/// partial result is the fixed-time member it stood on (a free-time problem whose solution has
+/// no unknown T once made the diagnostics index an empty parameter vector), and the fixed-time
+/// scan says where the optimal time lies.
+#[test]
+fn a_failed_first_free_time_solve_leaves_a_consistent_partial() {
+    let loaded = hard("samples_071_free_time_start.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("it stops");
+    let LieSolveError::StageFailed {
+        stage,
+        reason,
+        partial,
+        ..
+    } = err
+    else {
+        panic!("a stage stops: {err}");
+    };
+    assert_eq!(stage, "free-time start");
+    assert!(reason.contains("J*(T) increases with T"), "{reason}");
+    assert!(matches!(
+        partial.problem.terminal,
+        suslov::lie::problem::TerminalTime::Fixed(_)
+    ));
+    assert!(partial.bvp.p.is_empty());
+    // The checks run on it (they index T only for a free-time problem).
+    let checked = lie::verify_solution(&partial);
+    assert!(checked.diagnostics.cost.is_finite());
+}

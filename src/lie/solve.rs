@@ -651,12 +651,18 @@ impl<M: Model> Homotopy<'_, M> {
         }
         problem.omega_b.clone_from(&self.omega_b);
         // The member solved: a free-time problem stopped before its time stage was solved at
-        // the fixed time b_p (its BVP has no unknown T).
-        problem.terminal = match self.fixed_span {
-            None => TerminalTime::Free {
+        // the fixed time b_p (its BVP has no unknown T). The solution decides, not the mode:
+        // when the first free-time solve fails, the mode is free but the last solution the
+        // fixed-time one.
+        let solved_free = self.fixed_span.is_none()
+            && self.solution.p.len()
+                == crate::bvp::BvpProblem::k(&self.bvp_with(self.params.clone(), None));
+        problem.terminal = if solved_free {
+            TerminalTime::Free {
                 guess: problem.t0 + self.t_span,
-            },
-            Some(span) => TerminalTime::Fixed(problem.t0 + span),
+            }
+        } else {
+            TerminalTime::Fixed(problem.t0 + self.t_span)
         };
         LieSolution {
             problem,

@@ -432,11 +432,20 @@ pub fn hard_problems() -> Vec<CorpusProblem> {
                         .map(|tt| tt.contains_key("fixed"))
                 })
                 .unwrap_or(false);
+            // A samples file named by the problem travels with it (next to the hard file).
+            let samples = toml::from_str::<toml::Table>(&toml)
+                .ok()
+                .and_then(|t| Some(t.get("desired")?.get("file")?.as_str()?.to_string()))
+                .map(|file| {
+                    let csv = std::fs::read_to_string(hard_dir().join(&file))
+                        .expect("the hard file's samples file");
+                    (file, csv)
+                });
             CorpusProblem {
                 id: p.file_stem().unwrap().to_string_lossy().into_owned(),
                 category: HARD.into(),
                 toml,
-                samples: None,
+                samples,
                 fixed_time,
             }
         })
