@@ -7,6 +7,14 @@ use std::path::Path;
 use suslov::lie::{self, LieSolveError};
 use suslov::suslov::solve::SolveOptions;
 
+/// `(route, solved)` of every route `sol` lists, in order.
+fn solved_by<M: suslov::model::Model>(sol: &lie::LieSolution<M>) -> Vec<(&'static str, bool)> {
+    sol.routes
+        .iter()
+        .map(|r| (r.route, r.stopped.is_none()))
+        .collect()
+}
+
 fn hard(file: &str) -> suslov::config::LoadedProblem {
     let path = Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("tests/corpus/hard")
@@ -40,11 +48,7 @@ fn the_joint_route_solves_the_gamma_zero_file_the_default_route_does_not() {
         other => panic!("the default route alone should stop: {other:?}"),
     }
     let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("another route solves it");
-    let routes: Vec<(&str, bool)> = sol
-        .routes
-        .iter()
-        .map(|r| (r.route, r.stopped.is_none()))
-        .collect();
+    let routes = solved_by(&sol);
     assert_eq!(routes, [("default", false), ("joint weights", true)]);
     assert!(sol.routes[0]
         .stopped
@@ -163,11 +167,7 @@ fn a_wide_spiral_sigmoid_solves_by_the_desired_start() {
         .unwrap_or_else(|e| panic!("{e}"));
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
     let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
-    let routes: Vec<(&str, bool)> = sol
-        .routes
-        .iter()
-        .map(|r| (r.route, r.stopped.is_none()))
-        .collect();
+    let routes = solved_by(&sol);
     assert_eq!(routes, [("default", false), ("desired start", true)]);
     assert!(sol.routes[0]
         .stopped
@@ -190,11 +190,7 @@ fn a_polish_the_direct_solve_misses_is_reached_in_tolerance_steps() {
     let loaded = hard("fast_078_polish_steps.toml");
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
     let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
-    let routes: Vec<(&str, bool)> = sol
-        .routes
-        .iter()
-        .map(|r| (r.route, r.stopped.is_none()))
-        .collect();
+    let routes = solved_by(&sol);
     assert_eq!(routes, [("default", false), ("joint weights", true)]);
     let polish = sol.stages.last().expect("stages");
     assert_eq!(polish.name, "polish");

@@ -1257,15 +1257,12 @@ pub fn solve<M: Model>(
         }
         Err(e) => e,
     };
-    let tracking = M::WEIGHTS
-        .iter()
-        .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] > 0.0);
     let default_report = RouteReport {
         route: Route::DEFAULT.name,
         stopped: Some(first.to_string()),
         seconds: clock.elapsed().as_secs_f64(),
     };
-    let Some(others) = alternatives(&first, options, tracking) else {
+    let Some(others) = alternatives(&first, options, problem) else {
         let mut first = first;
         if let LieSolveError::StageFailed { partial, .. } = &mut first {
             partial.routes = vec![default_report];
@@ -1399,7 +1396,7 @@ pub fn solve<M: Model>(
 /// The routes to try after the default route stopped with `error`, in order, or `None` when
 /// no other route can help (an invalid problem, a missing role, an unsupported feature, a bug).
 ///
-/// - A failed start: with a tracking weight `tracking > 0`, the desired start (the full
+/// - A failed start: with a positive tracking weight in `problem`, the desired start (the full
 ///   tracking weight from the start), the segment start (both unless the options fix the
 ///   start), a 4 times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
 /// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
@@ -1409,8 +1406,11 @@ pub fn solve<M: Model>(
 pub fn alternatives<M: Model>(
     error: &LieSolveError<M>,
     options: &SolveOptions,
-    tracking: bool,
+    problem: &Problem<M>,
 ) -> Option<Vec<Route>> {
+    let tracking = M::WEIGHTS
+        .iter()
+        .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] > 0.0);
     let route = |name, start, order, beta_m_factor, mesh_factor| Route {
         name,
         start,

@@ -1,6 +1,7 @@
 //! The measurements behind the windowed `reintegration` check (issue #12;
 //! `REINTEGRATION_WINDOW_ANGLE` in `src/lie/checks.rs`, README "What 'converged' means"). All
-//! `#[ignore]`d, printing only, run in release:
+//! A measurement program (it prints, asserts nothing; the assertions on the check are in
+//! `tests/suslov_verify.rs`), one of:
 //!
 //! - `experiment` (`IDS=fast-018,... TOLF=1,2`): corpus problems solved at `tol · TOLF`; the
 //!   open-loop difference, the windowed one for several window angles, and (at the file's
@@ -9,8 +10,8 @@
 //! - `table`: the README's value / tol table for every example and tolerance;
 //! - `loose`: the README's table of failed checks at loose tolerances.
 //!
-//! `cargo test --release --test reint_windows_measurement -- --ignored --nocapture <name>`
-#[path = "corpus/mod.rs"]
+//! `cargo bench --bench reint_windows -- <name>` (release).
+#[path = "../tests/corpus/mod.rs"]
 mod corpus;
 
 use suslov::ivp::{integrate, IvpOptions};
@@ -23,8 +24,6 @@ fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()
 }
 
-#[test]
-#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn experiment() {
     let ids: Vec<String> = std::env::var("IDS")
         .unwrap_or("fast-018".into())
@@ -158,8 +157,6 @@ fn experiment() {
     }
 }
 
-#[test]
-#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn inspect() {
     use suslov::lie::verify::reintegrate_in_windows;
     let id = std::env::var("IDS").unwrap_or("long-134".into());
@@ -214,8 +211,6 @@ fn inspect() {
     }
 }
 
-#[test]
-#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn table() {
     let files = [
         "paper_eta1.toml",
@@ -262,8 +257,6 @@ fn table() {
     }
 }
 
-#[test]
-#[ignore = "a measurement (prints, asserts nothing): cargo test --release --test reint_windows_measurement -- --ignored --nocapture"]
 fn loose() {
     let files = [
         "paper_eta1.toml",
@@ -304,5 +297,31 @@ fn loose() {
             cells.push(cell);
         }
         println!("| `{f}` | {} |", cells.join(" | "));
+    }
+}
+
+fn main() {
+    let which: Vec<String> = std::env::args()
+        .skip(1)
+        .filter(|a| !a.starts_with("--"))
+        .collect();
+    let all = ["experiment", "inspect", "table", "loose"];
+    let chosen: Vec<&str> = if which.is_empty() {
+        eprintln!(
+            "usage: cargo bench --bench reint_windows -- <{}>",
+            all.join("|")
+        );
+        return;
+    } else {
+        which.iter().map(String::as_str).collect()
+    };
+    for name in chosen {
+        match name {
+            "experiment" => experiment(),
+            "inspect" => inspect(),
+            "table" => table(),
+            "loose" => loose(),
+            other => eprintln!("unknown measurement {other:?}; one of {}", all.join(", ")),
+        }
     }
 }
