@@ -15,7 +15,8 @@
 //! - `CORPUS_JOBS` (default 1): problems solved at once (timings are per problem; keep 1
 //!   for timings on a shared machine);
 //! - `CORPUS_WORK`: work directory (default `target/tmp/corpus`); the unsolved problems'
-//!   directories (problem file and outputs) are kept there;
+//!   directories (problem file and outputs) are kept there, every problem's with
+//!   `CORPUS_KEEP=1`;
 //! - `CORPUS_REPORT`: also write the report to this file.
 //!
 //! Timings are wall times of `run_solve` (figures and all outputs included) on whatever
@@ -267,6 +268,7 @@ fn main() {
         problems.len(),
         work.display()
     );
+    let keep = std::env::var("CORPUS_KEEP").is_ok_and(|v| v == "1");
     let next = AtomicUsize::new(0);
     let results: Mutex<Vec<Option<Outcome>>> = Mutex::new(vec![None; problems.len()]);
     let clock = Instant::now();
@@ -290,7 +292,7 @@ fn main() {
                     o.seconds,
                     o.verdict.label()
                 );
-                if o.verdict == Verdict::Solved {
+                if o.verdict == Verdict::Solved && !keep {
                     let _ = std::fs::remove_dir_all(work.join(&p.id));
                 }
                 results.lock().unwrap()[k] = Some(o);

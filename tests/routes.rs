@@ -5,6 +5,7 @@
 use std::path::Path;
 
 use suslov::lie::{self, LieSolveError};
+use suslov::model::HomotopyRole;
 use suslov::suslov::solve::SolveOptions;
 
 /// `(route, solved)` of every route `sol` lists, in order.
@@ -275,4 +276,79 @@ fn a_failed_first_free_time_solve_leaves_a_consistent_partial() {
     // The checks run on it (they index T only for a free-time problem).
     let checked = lie::verify_solution(&partial);
     assert!(checked.diagnostics.cost.is_finite());
+}
+
+/// Corpus problem long-114 (γ = 0, fixed b − a = 40.1): the default route stops in the
+/// tracking stage just short of γ = 0, where β is still β_m and, without tracking, almost any
+/// unit ξ steers Ω_a to Ω_b at almost no cost. The weak-tracking route holds Ω_p with a small
+/// weight until β is at its target and removes it last; it solves the problem, verified.
+#[test]
+fn the_weak_tracking_route_solves_a_gamma_zero_problem_the_default_stops_short_of() {
+    let loaded = hard("long_114_weak_tracking.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
+    let routes = solved_by(&sol);
+    assert_eq!(routes.first(), Some(&("default", false)), "{routes:?}");
+    assert_eq!(routes.last(), Some(&("weak tracking", true)), "{routes:?}");
+    assert!(sol.routes[0]
+        .stopped
+        .as_deref()
+        .is_some_and(|r| r.contains("stage 'gamma'")));
+    // The weak weight goes last: start, beta, then gamma from WEAK_TRACKING·min(α, β, 1) to 0.
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert_eq!(&names[..3], ["start", "beta", "gamma"], "{names:?}");
+    // The smallest of β and the positive fixed weights (α for so(3)), or 1, by the model's roles.
+    let p = problem.params();
+    let smallest = <suslov::model::generated::So3 as suslov::model::Model>::WEIGHTS
+        .iter()
+        .filter(|w| matches!(w.role, HomotopyRole::Fixed | HomotopyRole::Beta))
+        .map(|w| p[w.index])
+        .filter(|&v| v > 0.0)
+        .fold(1.0, f64::min);
+    let weak = suslov::lie::solve::WEAK_TRACKING * smallest;
+    assert!(
+        (sol.stages[2].from - weak).abs() <= 1e-15 * weak,
+        "{:?}",
+        sol.stages[2]
+    );
+    assert_eq!(sol.stages[2].to, 0.0);
+    assert!(lie::verify_solution(&sol).verification.passed());
+}
+
+/// Corpus problem spiral-108: the paper's spiral, fixed b while the path still settles, so the
+/// projected desired path misses Ω_b (Property 1 fails) and the default segment start does not
+/// converge. The desired start bends the desired path to Ω_a and Ω_b over the first and last
+/// quarter of [a, b] and solves the problem, verified.
+#[test]
+fn a_desired_path_that_misses_omega_b_is_bent_to_it_for_the_desired_start() {
+    let loaded = hard("spiral_108_bent_desired.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
+    let routes = solved_by(&sol);
+    assert_eq!(routes, [("default", false), ("desired start", true)]);
+    assert_eq!(sol.start.omega_p, suslov::lie::solve::BENT_DESIRED);
+    assert_eq!(sol.start.case, 3);
+    assert!(lie::verify_solution(&sol).verification.passed());
+}
+
+/// Corpus problem long-134 (fixed b − a = 44.7): the polish at 1e-8 meets the solver's error
+/// estimate on a mesh that does not resolve the motion well enough for the windowed
+/// re-integration check; the refine stage solves again at a 10 times tighter tolerance on a
+/// finer mesh, and that solution passes the checks at the requested tolerance.
+#[test]
+fn a_solution_that_fails_its_checks_is_refined_until_it_passes() {
+    let loaded = hard("long_134_refine.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("the default solves it");
+    assert_eq!(solved_by(&sol), [("default", true)]);
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert_eq!(&names[names.len() - 2..], ["polish", "refine"], "{names:?}");
+    let (polish, refine) = (&sol.stages[names.len() - 2], &sol.stages[names.len() - 1]);
+    assert!(refine.outcome.is_completed());
+    assert!(refine.nodes > polish.nodes, "{polish:?} {refine:?}");
+    assert_eq!(
+        sol.tolerance, loaded.options.tol,
+        "judged at the requested tolerance"
+    );
+    assert!(lie::verify_solution(&sol).verification.passed());
 }

@@ -206,6 +206,14 @@ pub enum PathError {
         /// The end time.
         t1: f64,
     },
+    /// The blending window of an [`EndBlend`] is not in `(0, b − a]`.
+    #[error("the blending window {window} must lie in (0, b − a = {span}]")]
+    BadWindow {
+        /// The window.
+        window: f64,
+        /// `b − a`.
+        span: f64,
+    },
     /// A quantity derived from valid input overflows `f64`.
     #[error("{what} overflows f64: {fix}")]
     Overflow {
@@ -902,6 +910,141 @@ fn cholesky_check(inertia: &[f64], n: usize, scale: f64) -> Result<(), PathError
     Ok(())
 }
 
+/// A path bent to given end points: `q(t) = inner(t) + w_a(t) (start − inner(a)) + w_b(t)
+/// (end − inner(b))`, with `w_b(t) = S((t − b + L)/L)` and `w_a(t) = 1 − S((t − a)/L)`, where
+/// `S(x) = x⁴ (35 − 84x + 70x² − 20x³)` on `[0, 1]` (0 below, 1 above) is the degree-7
+/// smoothstep, whose first three derivatives vanish at both ends. So `q` is as smooth as the
+/// inner path up to the jet this trait gives (`C³`), equals `start` at `a` and `end` at `b`
+/// (to rounding), and equals `inner` outside the two windows of length `L`.
+///
+/// The homotopy's start from a desired path that does not end at `Ω_b` (a fixed terminal time
+/// before the path settles, a sampled path that stops elsewhere) uses it: the projection of
+/// the bent path is an admissible `Ω_p` where the desired path itself is not.
+#[derive(Clone)]
+pub struct EndBlend {
+    inner: Arc<dyn Path>,
+    a: f64,
+    b: f64,
+    window: f64,
+    /// `start − inner(a)`.
+    at_a: Vec<f64>,
+    /// `end − inner(b)`.
+    at_b: Vec<f64>,
+}
+
+impl EndBlend {
+    /// `inner` bent to `start` at `a` and `end` at `b` over windows of length
+    /// `window ∈ (0, b − a]`; errors on a wrong length, non-finite input or a bad window.
+    pub fn new(
+        inner: Arc<dyn Path>,
+        (a, b): (f64, f64),
+        start: &[f64],
+        end: &[f64],
+        window: f64,
+    ) -> Result<Self, PathError> {
+        let n = inner.dim();
+        check_vector("EndBlend: start", start, Some(n))?;
+        check_vector("EndBlend: end", end, Some(n))?;
+        check_interval(a, b)?;
+        if !(window > 0.0 && window <= b - a) {
+            return Err(PathError::BadWindow {
+                window,
+                span: b - a,
+            });
+        }
+        let mut at_a = vec![0.0; n];
+        let mut at_b = vec![0.0; n];
+        inner.value_into(a, &mut at_a);
+        inner.value_into(b, &mut at_b);
+        for (d, s) in at_a.iter_mut().zip(start) {
+            *d = s - *d;
+        }
+        for (d, e) in at_b.iter_mut().zip(end) {
+            *d = e - *d;
+        }
+        check_finite("EndBlend: start − inner(a)", &at_a)?;
+        check_finite("EndBlend: end − inner(b)", &at_b)?;
+        Ok(Self {
+            inner,
+            a,
+            b,
+            window,
+            at_a,
+            at_b,
+        })
+    }
+
+    /// `[S, S', S'', S''']` at `x` (derivatives in `x`).
+    fn smoothstep(x: f64) -> [f64; 4] {
+        if x <= 0.0 {
+            return [0.0; 4];
+        }
+        if x >= 1.0 {
+            return [1.0, 0.0, 0.0, 0.0];
+        }
+        let y = 1.0 - x;
+        [
+            x.powi(4) * (35.0 - 84.0 * x + 70.0 * x * x - 20.0 * x.powi(3)),
+            140.0 * (x * y).powi(3),
+            420.0 * (x * y).powi(2) * (1.0 - 2.0 * x),
+            840.0 * x * y * (1.0 - 5.0 * x + 5.0 * x * x),
+        ]
+    }
+
+    /// The weights' jets `[w, w', w'', w''']` at `t` (derivatives in `t`): start, end.
+    fn weights(&self, t: f64) -> ([f64; 4], [f64; 4]) {
+        let l = self.window;
+        let sa = Self::smoothstep((t - self.a) / l);
+        let sb = Self::smoothstep((t - self.b + l) / l);
+        let mut wa = [1.0 - sa[0], 0.0, 0.0, 0.0];
+        let mut wb = [sb[0], 0.0, 0.0, 0.0];
+        let mut scale = 1.0;
+        for k in 1..4 {
+            scale /= l;
+            wa[k] = -sa[k] * scale;
+            wb[k] = sb[k] * scale;
+        }
+        (wa, wb)
+    }
+}
+
+impl fmt::Debug for EndBlend {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("EndBlend")
+            .field(
+                "inner",
+                &format_args!("<dyn Path, dim {}>", self.inner.dim()),
+            )
+            .field("interval", &(self.a, self.b))
+            .field("window", &self.window)
+            .field("at_a", &self.at_a)
+            .field("at_b", &self.at_b)
+            .finish()
+    }
+}
+
+impl Path for EndBlend {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+
+    fn jet_into(&self, t: f64, out: &mut [f64]) {
+        let n = self.dim();
+        check_out("jet_into", out.len(), 4 * n);
+        self.inner.jet_into(t, out);
+        let (wa, wb) = self.weights(t);
+        for k in 0..4 {
+            for i in 0..n {
+                out[k * n + i] += wa[k] * self.at_a[i] + wb[k] * self.at_b[i];
+            }
+        }
+    }
+
+    fn end_time(&self) -> Option<f64> {
+        Some(self.b)
+    }
+}
+
 /// The radial projection of any path onto a level set, with exact derivatives: the inner
 /// jet is lifted to a [`Dual3`] per component and pushed through
 /// [`LevelSet::project_generic`]. Undefined (non-finite) where the inner path is 0.
@@ -1282,6 +1425,50 @@ mod tests {
         }
     }
 
+    /// The bent path: the given end points at a and b, the inner path between the windows
+    /// (bit for bit), an exact jet (finite differences inside and across the windows), and
+    /// the window checked.
+    #[test]
+    fn end_blend_meets_its_end_points_and_keeps_the_inner_path_between() {
+        let inner: Arc<dyn Path> = Arc::new(sampled6());
+        let (a, b) = (0.2, 3.8);
+        let start = [1.0, -2.0, 0.5, 3.0, 0.0, -1.0];
+        let end = [-0.5, 4.0, 2.0, -3.0, 1.5, 0.25];
+        let bent = EndBlend::new(inner.clone(), (a, b), &start, &end, 0.9).unwrap();
+        assert_eq!(bent.dim(), 6);
+        assert_eq!(bent.end_time(), Some(b));
+        assert!(
+            dist(&value(&bent, a), &start) <= 1e-14,
+            "{:?}",
+            value(&bent, a)
+        );
+        assert!(
+            dist(&value(&bent, b), &end) <= 1e-14,
+            "{:?}",
+            value(&bent, b)
+        );
+        for t in [a + 1.0, 1.5, 2.0, b - 1.0] {
+            assert_eq!(
+                jet(&bent, t),
+                jet(&*inner, t),
+                "t = {t}: between the windows"
+            );
+        }
+        // Inside the windows and outside [a, b], the stencil t ± 4h clear of the spline's knots
+        // and the windows' edges (where the fourth derivative jumps).
+        for t in [a - 0.3, a + 0.3, a + 0.6, b - 0.5, b - 0.2, b + 0.2] {
+            check_fd(&bent, t, 1e-2, [1e-10, 1e-8, 1e-6]);
+        }
+        for window in [0.0, -1.0, 3.7, f64::NAN] {
+            let err = EndBlend::new(inner.clone(), (a, b), &start, &end, window).unwrap_err();
+            assert!(
+                matches!(err, PathError::BadWindow { .. }),
+                "{window}: {err}"
+            );
+        }
+        assert!(EndBlend::new(inner, (a, b), &start[..3], &end, 0.9).is_err());
+    }
+
     #[test]
     fn projected_sampled_jet_matches_finite_differences() {
         let (p, _) = projected_sampled6();
@@ -1625,9 +1812,10 @@ mod tests {
             PathError::OffLevelSet { .. } => 11,
             PathError::SegmentThroughOrigin { .. } => 12,
             PathError::BadTolerance { .. } => 13,
+            PathError::BadWindow { .. } => 14,
         }
     }
-    const VARIANTS: usize = 14;
+    const VARIANTS: usize = 15;
 
     #[test]
     fn every_error_variant_is_reached_by_bad_input() {
@@ -1910,6 +2098,11 @@ mod tests {
                 -1.0,
             )),
             &["tolerance -1", "≥ 0"],
+        );
+        // BadWindow.
+        expect(
+            EndBlend::new(Arc::new(sampled6()), (0.0, 1.0), &[1.0; 6], &[2.0; 6], 1.5).map(|_| ()),
+            &["window 1.5", "(0, b − a = 1]"],
         );
 
         let missing: Vec<usize> = (0..VARIANTS).filter(|&i| !seen[i]).collect();

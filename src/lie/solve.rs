@@ -21,7 +21,10 @@
 //!    stage** (`0 → η`), 5. **constraint stage** (models with a constraint value, below),
 //!    6. **time stage** (free terminal time: `T` becomes unknown; the `Time` weight goes from
 //!    `δ_c`, the generated `delta_start`, to its target), 7. **polish** at the requested
-//!    tolerance.
+//!    tolerance; 8. **refine**, only when the polished solution fails its a-posteriori checks
+//!    ([`super::verify`]) although the solver's error estimate met the tolerance (a mesh too
+//!    coarse for a long horizon): solves at [`REFINE_FACTORS`] times the tolerance, the first
+//!    that passes the checks (at the requested tolerance) kept.
 //!
 //! **A nonzero constraint value** (`⟨Ω, ξ⟩ = γ` constant, e.g. the inhomogeneous Suslov
 //! problem): the analytic start needs the energy level set, which only `γ = 0` keeps, and the
@@ -46,9 +49,12 @@
 //! [`Route`]. When it stops, [`solve`] does not give up: it tries other routes, chosen by where
 //! the default stopped ([`alternatives`]): after a failed start, the other analytic starts
 //! (with tracking, the full tracking weight from the start even when the desired path leaves
-//! the level set), a finer initial mesh, a smaller and a larger `β_m`; after a stalled weight
-//! stage, all weights continued jointly along one parameter, β before tracking, the starts
-//! not taken, a finer mesh.
+//! the level set, or misses `Ω_b` at a fixed `b`: then it is bent to the end points,
+//! [`BENT_DESIRED`]), a finer initial mesh, a smaller and a larger `β_m`; after a stalled
+//! weight stage, all weights continued jointly along one parameter, β before tracking, the
+//! starts not taken, a finer mesh. With a tracking weight 0, the weak-tracking route holds
+//! `Ω_p` with a small weight until the other weights are at their targets
+//! ([`WEAK_TRACKING`]).
 //! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
 //! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
 
@@ -58,7 +64,7 @@ use crate::bvp::{self, Guess, Solution};
 use crate::continuation::{self, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
-use super::path::{projected_segment, Path, Projected};
+use super::path::{projected_segment, EndBlend, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
 /// Cap on the pseudo-arclength attempts of a stage whose natural continuation stalled.
@@ -164,6 +170,9 @@ pub struct Route {
     pub beta_m_factor: f64,
     /// The initial mesh has this many times the options' intervals.
     pub mesh_factor: usize,
+    /// With a vanishing tracking weight: hold the start path `Ω_p` with the small weight
+    /// [`WEAK_TRACKING`] through the start and the other weight stages, and remove it last.
+    pub weak_tracking: bool,
 }
 
 impl Route {
@@ -174,8 +183,19 @@ impl Route {
         order: StageOrder::Sequential,
         beta_m_factor: 1.0,
         mesh_factor: 1,
+        weak_tracking: false,
     };
 }
+
+/// The tracking weight of the weak-tracking route ([`Route::weak_tracking`]) relative to the
+/// smallest of β and the positive fixed weights (for so(3): `1e-2 min(α, β, 1)`, as `β_m`).
+///
+/// Why the route exists: with tracking weight 0 the paper's first case holds `Ω_p` with weight
+/// 1 at `β = β_m` and removes it first; at `β_m` without tracking the cost barely depends on the
+/// path of `ξ` (any unit `ξ` that steers `Ω_a` to `Ω_b` costs almost nothing), so the last steps
+/// of that stage are nearly singular. A small weight kept until `β` and the smoothing weights
+/// are at their targets avoids that corner; it is removed last.
+pub const WEAK_TRACKING: f64 = 1e-2;
 
 /// How one route ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -221,7 +241,7 @@ impl std::fmt::Display for StageOutcome {
 /// One stage of the homotopy.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StageReport {
-    /// "start", "gamma", "beta", "eta", "delta", "polish", or a stage of the constraint value
+    /// "start", "gamma", "beta", "eta", "delta", "polish", "refine", or a stage of the constraint value
     /// (module docs).
     pub name: &'static str,
     /// The continued parameter (a weight's name, or what the stage moves), "-" for single
@@ -489,6 +509,11 @@ fn check_properties<M: Model>(
 
 type SharedPath = Arc<dyn Path>;
 
+/// The start path of the desired start when the desired path misses `Ω_a` or `Ω_b`: the
+/// desired path bent to them ([`EndBlend`]) over the first and last quarter of `[a, b_p]`, then
+/// projected onto the level set.
+pub const BENT_DESIRED: &str = "projected desired path, bent to the end points";
+
 /// Choose `Ω_p` and the paper case (module docs).
 fn choose_start<M: Model>(
     problem: &Problem<M>,
@@ -559,20 +584,53 @@ fn choose_start<M: Model>(
                      desired path is not part of the cost); use the segment or auto start"
                 )));
             }
-            if !admissible(&proj) {
-                return Err(LieSolveError::Start(format!(
-                    "the projected desired path violates Property 1 or 3 on [a, b_p] \
-                     (|Omega_p(a) - Omega_a| = {:e}, |Omega_p(b_p) - Omega_b| = {:e}, \
-                     min |I Om' - ad*_Om I Om| = {:e}); use the segment start",
-                    proj.start_error, proj.end_error, proj.min_euler_defect
-                )));
-            }
             let case = if strategy == StartStrategy::Desired {
                 3
             } else {
                 2
             };
-            return Ok((projected, choice("projected desired path", case)));
+            if admissible(&proj) {
+                return Ok((projected, choice("projected desired path", case)));
+            }
+            // A desired path that misses an end point (e.g. a fixed b before it settles):
+            // bent to Omega_a and Omega_b over the first and last quarter of [a, b_p].
+            let bent = EndBlend::new(
+                problem.desired.clone(),
+                (a, b_p),
+                &problem.omega_a,
+                &problem.omega_b,
+                0.25 * (b_p - a),
+            )
+            .map(|inner| -> SharedPath {
+                Arc::new(Projected {
+                    inner: Arc::new(inner),
+                    set: problem.level_set(),
+                })
+            });
+            let bent_report = bent
+                .as_ref()
+                .map(|path| check_properties(problem, &**path, (a, b_p), samples));
+            if let (Ok(path), Ok(report)) = (&bent, &bent_report) {
+                if admissible(report) {
+                    return Ok((path.clone(), choice(BENT_DESIRED, case)));
+                }
+            }
+            return Err(LieSolveError::Start(format!(
+                "the projected desired path violates Property 1 or 3 on [a, b_p] \
+                 (|Omega_p(a) - Omega_a| = {:e}, |Omega_p(b_p) - Omega_b| = {:e}, \
+                 min |I Om' - ad*_Om I Om| = {:e}), and bent to the end points {}; use the \
+                 segment start",
+                proj.start_error,
+                proj.end_error,
+                proj.min_euler_defect,
+                match &bent_report {
+                    Ok(r) => format!(
+                        "it violates Property 3 (min |I Om' - ad*_Om I Om| = {:e} at t = {})",
+                        r.min_euler_defect, r.t_min_euler_defect
+                    ),
+                    Err(e) => format!("it is undefined ({e})"),
+                }
+            )));
         }
     }
     if gamma_positive {
@@ -1018,19 +1076,70 @@ impl<M: Model> Homotopy<'_, M> {
         Ok(())
     }
 
+    /// The polish to the requested tolerance, then, if the solution fails its a-posteriori
+    /// checks although the solver's error estimate met the tolerance (e.g. a coarse mesh over a
+    /// long horizon), solves at [`REFINE_FACTORS`] times the tolerance, the first that
+    /// passes the checks kept (which stay those of the requested tolerance). Every stage tried is
+    /// in the returned solution's stage table.
+    fn finish(
+        &mut self,
+        options: &SolveOptions,
+        bvp_opts: &dyn Fn(f64) -> bvp::Options,
+        events: &mut dyn FnMut(&Event),
+    ) -> Result<LieSolution<M>, LieSolveError<M>> {
+        self.polish(
+            "polish",
+            options.tol,
+            options.continuation_tol,
+            bvp_opts,
+            events,
+        )?;
+        let mut solution = self.snapshot();
+        if super::verify::verify_solution(&solution)
+            .verification
+            .passed()
+        {
+            return Ok(solution);
+        }
+        for factor in REFINE_FACTORS {
+            if self
+                .polish(
+                    "refine",
+                    options.tol * factor,
+                    options.tol,
+                    bvp_opts,
+                    events,
+                )
+                .is_err()
+            {
+                break;
+            }
+            let tighter = self.snapshot();
+            if super::verify::verify_solution(&tighter)
+                .verification
+                .passed()
+            {
+                return Ok(tighter);
+            }
+        }
+        solution.stages.clone_from(&self.stages);
+        Ok(solution)
+    }
+
     /// The final solve at the requested tolerance `tol` from the current solution. When the
     /// direct solve fails, the tolerance is stepped down by factors of 100 from `from_tol`
-    /// (the continuation's), each solve starting from the last: a solution that the direct
-    /// polish misses (a sensitive one, near the end of a continuation) is reached in steps.
+    /// (the continuation's), each solve starting from the last, with a step of 10 where one of
+    /// 100 fails: a solution that the direct polish misses (a sensitive one, near the end of a
+    /// continuation) is reached in steps.
     fn polish(
         &mut self,
+        name: &'static str,
         tol: f64,
         from_tol: f64,
         options: &dyn Fn(f64) -> bvp::Options,
         events: &mut dyn FnMut(&Event),
     ) -> Result<(), LieSolveError<M>> {
         let clock = std::time::Instant::now();
-        let name = "polish";
         events(&Event::StageStarted {
             name,
             from: 0.0,
@@ -1056,17 +1165,22 @@ impl<M: Model> Homotopy<'_, M> {
         if direct.is_success() {
             self.solution = direct;
         } else {
-            let mut t = from_tol;
-            while failure.is_none() && t > tol * (1.0 + 1e-9) {
-                t = (t * 1e-2).max(tol);
+            // The last tolerance solved at, and the step to the next (100×, or 10× after a
+            // failed 100× step).
+            let (mut good, mut ratio) = (from_tol, 1e-2);
+            while failure.is_none() && good > tol * (1.0 + 1e-9) {
+                let t = (good * ratio).max(tol);
                 steps += 1;
                 let sol = attempt(self, t, events)?;
                 if sol.is_success() {
                     self.solution = sol;
+                    (good, ratio) = (t, 1e-2);
+                } else if ratio < 1e-1 && good * 1e-1 > tol * (1.0 + 1e-9) {
+                    ratio = 1e-1;
                 } else {
                     failure = Some(format!(
                         "{:?}: {} (the direct solve at {tol:e} failed too; stepping the \
-                         tolerance down from {from_tol:e}, the solve at {t:e} failed)",
+                         tolerance down from {from_tol:e}, the step from {good:e} to {t:e} failed)",
                         sol.status,
                         sol.status.message()
                     ));
@@ -1397,10 +1511,13 @@ pub fn solve<M: Model>(
 /// no other route can help (an invalid problem, a missing role, an unsupported feature, a bug).
 ///
 /// - A failed start: with a positive tracking weight in `problem`, the desired start (the full
-///   tracking weight from the start), the segment start (both unless the options fix the
-///   start), a 4 times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
-/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
-///   starts the default did not take, the finer mesh.
+///   tracking weight from the start; the desired path bent to the end points when it misses
+///   them, [`BENT_DESIRED`]), the segment start (both unless the options fix the start), with
+///   a tracking weight 0 the weak-tracking route ([`WEAK_TRACKING`]), a 4 times finer initial
+///   mesh, `β_m` 10 times smaller, and 10 times larger.
+/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, with a
+///   tracking weight 0 the weak-tracking route, the starts the default did not take, the finer
+///   mesh.
 /// - Any later stage: the weights jointly (a different point to start the later stages
 ///   from), the finer mesh.
 pub fn alternatives<M: Model>(
@@ -1417,6 +1534,15 @@ pub fn alternatives<M: Model>(
         order,
         beta_m_factor,
         mesh_factor,
+        weak_tracking: false,
+    };
+    // A tracking weight that is part of the model but 0 in this problem.
+    let vanishing = M::WEIGHTS
+        .iter()
+        .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] == 0.0);
+    let weak = Route {
+        weak_tracking: true,
+        ..route("weak tracking", None, StageOrder::Sequential, 1.0, 1)
     };
     let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
     let desired = start_route("desired start", StartStrategy::Desired);
@@ -1453,6 +1579,9 @@ pub fn alternatives<M: Model>(
                 }
                 r.push(segment);
             }
+            if vanishing {
+                r.push(weak);
+            }
             r.push(finer);
             r.push(route(
                 "smaller beta_m",
@@ -1485,6 +1614,9 @@ pub fn alternatives<M: Model>(
             let mut r = vec![joint];
             if matches!(*stage, "gamma" | "beta" | "eta") {
                 r.push(route("beta first", None, StageOrder::BetaFirst, 1.0, 1));
+                if vanishing {
+                    r.push(weak);
+                }
                 r.extend(other_starts(&partial.start));
             }
             r.push(finer);
@@ -1680,9 +1812,12 @@ fn free_from_fixed<M: Model>(
         &bvp_opts(options.continuation_tol),
         events,
     )?;
-    h.polish(options.tol, options.continuation_tol, &bvp_opts, events)?;
-    Ok(h.snapshot())
+    h.finish(options, &bvp_opts, events)
 }
+
+/// How much tighter the `refine` stages solve a solution that failed its a-posteriori checks
+/// (in turn, until one passes them).
+pub const REFINE_FACTORS: [f64; 2] = [1e-1, 1e-2];
 
 /// Solve `problem` along one route (module docs).
 fn solve_route<M: Model>(
@@ -1721,18 +1856,27 @@ fn solve_route<M: Model>(
         )));
     }
     let base = constraint_free(problem)?;
+    // min(fixed positive weights, β, γ or 1): for so(3), min(α, β, γ or 1).
+    let smallest_weight = |g: f64| {
+        M::WEIGHTS
+            .iter()
+            .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+            .map(|w| p[w.index])
+            .fold(p[beta].min(g), f64::min)
+    };
+    // The weak-tracking route's weight on Ω_p (`None` on every other route).
+    let weak = (route.weak_tracking && gamma == 0.0)
+        .then_some(tracking)
+        .flatten()
+        .map(|_| WEAK_TRACKING * smallest_weight(1.0));
     let beta_m = route.beta_m_factor
-        * options.beta_m.unwrap_or_else(|| {
-            // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
-            let g = if gamma > 0.0 { gamma } else { 1.0 };
-            M::WEIGHTS
-                .iter()
-                .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
-                .map(|w| p[w.index])
-                .fold(p[beta].min(g), f64::min)
-                * 1e-2
-        });
-    let strategy = route.start.unwrap_or(options.start);
+        * options
+            .beta_m
+            .unwrap_or_else(|| 1e-2 * smallest_weight(if gamma > 0.0 { gamma } else { 1.0 }));
+    let strategy = match weak {
+        Some(_) => StartStrategy::Segment,
+        None => route.start.unwrap_or(options.start),
+    };
     let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, strategy)?;
 
     let mut params = base.params().to_vec();
@@ -1745,7 +1889,7 @@ fn solve_route<M: Model>(
     }
     if let Some(i) = tracking {
         params[i] = match start.case {
-            1 => 1.0,
+            1 => weak.unwrap_or(1.0),
             2 => 0.0,
             _ => gamma,
         };
@@ -1891,7 +2035,7 @@ fn solve_route<M: Model>(
     };
     let tracking_stage = |h: &mut Homotopy<'_, M>, events: &mut dyn FnMut(&Event)| {
         if let Some(i) = tracking {
-            if case != 3 {
+            if case != 3 && weak.is_none() {
                 let (from, to) = (tracking_at(0.0), tracking_at(1.0));
                 h.stage("gamma", i, from, to, &tracking_at, &cont, events)?;
                 h.params[i] = to;
@@ -1943,7 +2087,7 @@ fn solve_route<M: Model>(
             }
         }
     }
-    if case == 1 {
+    if case == 1 && weak.is_none() {
         h.tracking = problem.desired.clone(); // weight 0 from here on
     }
     for &i in &smoothing {
@@ -1951,6 +2095,11 @@ fn solve_route<M: Model>(
         if target > 0.0 && h.params[i] != target {
             h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
         }
+    }
+    if let (Some(w), Some(i)) = (weak, tracking) {
+        h.stage("gamma", i, w, 0.0, &move |l| w * (1.0 - l), &cont, events)?;
+        h.params[i] = 0.0;
+        h.tracking = problem.desired.clone(); // weight 0 from here on
     }
     if !problem.conserves_energy() {
         h.constraint_stages(problem, &cont, events)?;
@@ -1993,6 +2142,5 @@ fn solve_route<M: Model>(
             }
         }
     }
-    h.polish(options.tol, options.continuation_tol, &bvp_opts, events)?;
-    Ok(h.snapshot())
+    h.finish(options, &bvp_opts, events)
 }
