@@ -5,7 +5,6 @@
 use std::path::Path;
 
 use suslov::lie::{self, LieSolveError};
-use suslov::model::HomotopyRole;
 use suslov::suslov::solve::SolveOptions;
 
 /// `(route, solved)` of every route `sol` lists, in order.
@@ -81,10 +80,11 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
         panic!("a stage stops: {err}");
     };
     assert_eq!(stage, "beta");
-    // The evidence: pseudo-arclength found no fold, and the control collapses (min |xi| from
-    // about 1 to below 0.1 as beta grew, where alpha = 0.17 is small against beta).
+    // The evidence: pseudo-arclength gets no further (the branch turns back at the stall, a
+    // fold at beta = 0.2985 when measured), and the control collapses (min |xi| from about 1
+    // to below 0.1 as beta grew, where alpha = 0.17 is small against beta).
     assert!(
-        reason.contains("pseudo-arclength continuation found no fold"),
+        reason.contains("pseudo-arclength continuation") && reason.contains("no further than"),
         "{reason}"
     );
     assert!(reason.contains("xi collapses toward 0"), "{reason}");
@@ -278,43 +278,6 @@ fn a_failed_first_free_time_solve_leaves_a_consistent_partial() {
     assert!(checked.diagnostics.cost.is_finite());
 }
 
-/// Corpus problem long-114 (γ = 0, fixed b − a = 40.1): the default route stops in the
-/// tracking stage just short of γ = 0, where β is still β_m and, without tracking, almost any
-/// unit ξ steers Ω_a to Ω_b at almost no cost. The weak-tracking route holds Ω_p with a small
-/// weight until β is at its target and removes it last; it solves the problem, verified.
-#[test]
-fn the_weak_tracking_route_solves_a_gamma_zero_problem_the_default_stops_short_of() {
-    let loaded = hard("long_114_weak_tracking.toml");
-    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
-    let routes = solved_by(&sol);
-    assert_eq!(routes.first(), Some(&("default", false)), "{routes:?}");
-    assert_eq!(routes.last(), Some(&("weak tracking", true)), "{routes:?}");
-    assert!(sol.routes[0]
-        .stopped
-        .as_deref()
-        .is_some_and(|r| r.contains("stage 'gamma'")));
-    // The weak weight goes last: start, beta, then gamma from WEAK_TRACKING·min(α, β, 1) to 0.
-    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
-    assert_eq!(&names[..3], ["start", "beta", "gamma"], "{names:?}");
-    // The smallest of β and the positive fixed weights (α for so(3)), or 1, by the model's roles.
-    let p = problem.params();
-    let smallest = <suslov::model::generated::So3 as suslov::model::Model>::WEIGHTS
-        .iter()
-        .filter(|w| matches!(w.role, HomotopyRole::Fixed | HomotopyRole::Beta))
-        .map(|w| p[w.index])
-        .filter(|&v| v > 0.0)
-        .fold(1.0, f64::min);
-    let weak = suslov::lie::solve::WEAK_TRACKING * smallest;
-    assert!(
-        (sol.stages[2].from - weak).abs() <= 1e-15 * weak,
-        "{:?}",
-        sol.stages[2]
-    );
-    assert_eq!(sol.stages[2].to, 0.0);
-    assert!(lie::verify_solution(&sol).verification.passed());
-}
-
 /// Corpus problem spiral-108: the paper's spiral, fixed b while the path still settles, so the
 /// projected desired path misses Ω_b (Property 1 fails) and the default segment start does not
 /// converge. The desired start bends the desired path to Ω_a and Ω_b over the first and last
@@ -351,4 +314,33 @@ fn a_solution_that_fails_its_checks_is_refined_until_it_passes() {
         "judged at the requested tolerance"
     );
     assert!(lie::verify_solution(&sol).verification.passed());
+}
+
+/// Corpus problem issue12-124 (γ = 0, fixed b − a = 14.1): natural continuation of every route
+/// stalls just short of γ = 0, where the branch has two folds 2e-4 apart in the stage's
+/// parameter. Pseudo-arclength with small enough steps passes both, and the joint route
+/// reaches the target weights; its summary carries the second-order certificate (a solution
+/// past a fold could be a saddle), which certifies a local minimum.
+#[test]
+fn a_branch_through_two_folds_reaches_the_target_and_is_certified() {
+    let loaded = hard("issue12_124_two_folds.toml");
+    let sol = suslov::solve(&loaded.problem, &loaded.options, &mut |_| {}).expect("solves");
+    let routes = solved_by(&sol.generic);
+    assert_eq!(routes, [("default", false), ("joint weights", true)]);
+    let weights = sol
+        .generic
+        .stages
+        .iter()
+        .find(|s| s.name == "weights")
+        .expect("the joint stage");
+    assert_eq!(weights.folds.len(), 2, "{weights:?}");
+    assert!(
+        weights.folds.iter().all(|&f| f > 0.999 && f < 1.0),
+        "{weights:?}"
+    );
+    assert!(lie::verify_solution(&sol.generic).verification.passed());
+    let summary = suslov::app::summarize("issue12-124", &sol, 0.0);
+    let after = &summary.extra["after_fold"];
+    assert_eq!(after["folds"].as_array().map(Vec::len), Some(2), "{after}");
+    assert_eq!(after["verdict"], "Certified", "{after}");
 }

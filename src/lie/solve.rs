@@ -52,9 +52,7 @@
 //! the level set, or misses `Ω_b` at a fixed `b`: then it is bent to the end points,
 //! [`BENT_DESIRED`]), a finer initial mesh, a smaller and a larger `β_m`; after a stalled
 //! weight stage, all weights continued jointly along one parameter, β before tracking, the
-//! starts not taken, a finer mesh. With a tracking weight 0, the weak-tracking route holds
-//! `Ω_p` with a small weight until the other weights are at their targets
-//! ([`WEAK_TRACKING`]).
+//! starts not taken, a finer mesh.
 //! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
 //! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
 
@@ -67,8 +65,14 @@ use crate::model::{HomotopyRole, Model};
 use super::path::{projected_segment, EndBlend, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
-/// Cap on the pseudo-arclength attempts of a stage whose natural continuation stalled.
-const ARCLENGTH_MAX_STEPS: usize = 80;
+/// Cap on the pseudo-arclength steps of a stage whose natural continuation stalled. Corpus
+/// problem issue12-124 (γ = 0, `tests/routes.rs`) needs more than 80: its branch passes two
+/// folds within 3.5e-5 of the end of the stage.
+const ARCLENGTH_MAX_STEPS: usize = 300;
+
+/// Smallest pseudo-arclength step: the folds of issue12-124 are 2e-4 apart in the stage's
+/// parameter, which steps of at least 1e-5 did not resolve (measured: no fold found).
+const ARCLENGTH_MIN_STEP: f64 = 1e-8;
 
 /// `Ω_d` counts as admissible (paper's third case) when its relative energy deviation from
 /// `E` stays below this and Properties 1 and 3 hold.
@@ -170,9 +174,6 @@ pub struct Route {
     pub beta_m_factor: f64,
     /// The initial mesh has this many times the options' intervals.
     pub mesh_factor: usize,
-    /// With a vanishing tracking weight: hold the start path `Ω_p` with the small weight
-    /// [`WEAK_TRACKING`] through the start and the other weight stages, and remove it last.
-    pub weak_tracking: bool,
 }
 
 impl Route {
@@ -183,19 +184,8 @@ impl Route {
         order: StageOrder::Sequential,
         beta_m_factor: 1.0,
         mesh_factor: 1,
-        weak_tracking: false,
     };
 }
-
-/// The tracking weight of the weak-tracking route ([`Route::weak_tracking`]) relative to the
-/// smallest of β and the positive fixed weights (for so(3): `1e-2 min(α, β, 1)`, as `β_m`).
-///
-/// Why the route exists: with tracking weight 0 the paper's first case holds `Ω_p` with weight
-/// 1 at `β = β_m` and removes it first; at `β_m` without tracking the cost barely depends on the
-/// path of `ξ` (any unit `ξ` that steers `Ω_a` to `Ω_b` costs almost nothing), so the last steps
-/// of that stage are nearly singular. A small weight kept until `β` and the smoothing weights
-/// are at their targets avoids that corner; it is removed last.
-pub const WEAK_TRACKING: f64 = 1e-2;
 
 /// How one route ended.
 #[derive(Debug, Clone, PartialEq)]
@@ -241,8 +231,8 @@ impl std::fmt::Display for StageOutcome {
 /// One stage of the homotopy.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StageReport {
-    /// "start", "gamma", "beta", "eta", "delta", "polish", "refine", or a stage of the constraint value
-    /// (module docs).
+    /// "start", "gamma", "beta", "eta", "delta", "polish", "refine", or a stage of the
+    /// constraint value (module docs).
     pub name: &'static str,
     /// The continued parameter (a weight's name, or what the stage moves), "-" for single
     /// solves.
@@ -860,7 +850,7 @@ impl<M: Model> Homotopy<'_, M> {
             let arc = continuation::ArclengthOptions {
                 initial_step: 0.02,
                 max_step: 0.2,
-                min_step: 1e-5,
+                min_step: ARCLENGTH_MIN_STEP,
                 max_steps: ARCLENGTH_MAX_STEPS,
                 lambda_stop: Some(1.0),
                 bvp: opts.bvp.clone(),
@@ -896,20 +886,28 @@ impl<M: Model> Homotopy<'_, M> {
                             .iter()
                             .map(|b| b.lambda)
                             .fold(lambda, f64::max);
-                        status = Some(if let Some(f) = rescue.folds.first() {
+                        let furthest = at(furthest).1;
+                        let fold_values: Vec<String> = rescue
+                            .folds
+                            .iter()
+                            .map(|f| at(f.lambda).1.to_string())
+                            .collect();
+                        status = Some(if fold_values.is_empty() {
                             format!(
-                                "{natural_reason}; pseudo-arclength continuation found a fold at \
-                                 {} = {} (the branch turns back there and reaches no further than {} = {}; {other}): the target is not on this branch",
-                                spec.parameter,
-                                at(f.lambda).1,
-                                spec.parameter,
-                                at(furthest).1
+                                "{natural_reason}; pseudo-arclength continuation found no fold \
+                                 and got no further than {} = {furthest} ({other})",
+                                spec.parameter
                             )
                         } else {
                             format!(
-                                "{natural_reason}; pseudo-arclength continuation found no fold and got no further than {} = {} ({other})",
+                                "{natural_reason}; pseudo-arclength continuation passed {} \
+                                 fold(s) of the branch (at {} = {}) and got no further than {} \
+                                 = {furthest} ({other}): the target is not reached on this \
+                                 branch",
+                                fold_values.len(),
                                 spec.parameter,
-                                at(furthest).1
+                                fold_values.join(", "),
+                                spec.parameter,
                             )
                         });
                     }
@@ -1512,12 +1510,10 @@ pub fn solve<M: Model>(
 ///
 /// - A failed start: with a positive tracking weight in `problem`, the desired start (the full
 ///   tracking weight from the start; the desired path bent to the end points when it misses
-///   them, [`BENT_DESIRED`]), the segment start (both unless the options fix the start), with
-///   a tracking weight 0 the weak-tracking route ([`WEAK_TRACKING`]), a 4 times finer initial
-///   mesh, `β_m` 10 times smaller, and 10 times larger.
-/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, with a
-///   tracking weight 0 the weak-tracking route, the starts the default did not take, the finer
-///   mesh.
+///   them, [`BENT_DESIRED`]), the segment start (both unless the options fix the start), a 4
+///   times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
+/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
+///   starts the default did not take, the finer mesh.
 /// - Any later stage: the weights jointly (a different point to start the later stages
 ///   from), the finer mesh.
 pub fn alternatives<M: Model>(
@@ -1534,15 +1530,6 @@ pub fn alternatives<M: Model>(
         order,
         beta_m_factor,
         mesh_factor,
-        weak_tracking: false,
-    };
-    // A tracking weight that is part of the model but 0 in this problem.
-    let vanishing = M::WEIGHTS
-        .iter()
-        .any(|w| w.role == HomotopyRole::Tracking && problem.params()[w.index] == 0.0);
-    let weak = Route {
-        weak_tracking: true,
-        ..route("weak tracking", None, StageOrder::Sequential, 1.0, 1)
     };
     let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
     let desired = start_route("desired start", StartStrategy::Desired);
@@ -1579,9 +1566,6 @@ pub fn alternatives<M: Model>(
                 }
                 r.push(segment);
             }
-            if vanishing {
-                r.push(weak);
-            }
             r.push(finer);
             r.push(route(
                 "smaller beta_m",
@@ -1614,9 +1598,6 @@ pub fn alternatives<M: Model>(
             let mut r = vec![joint];
             if matches!(*stage, "gamma" | "beta" | "eta") {
                 r.push(route("beta first", None, StageOrder::BetaFirst, 1.0, 1));
-                if vanishing {
-                    r.push(weak);
-                }
                 r.extend(other_starts(&partial.start));
             }
             r.push(finer);
@@ -1856,27 +1837,18 @@ fn solve_route<M: Model>(
         )));
     }
     let base = constraint_free(problem)?;
-    // min(fixed positive weights, β, γ or 1): for so(3), min(α, β, γ or 1).
-    let smallest_weight = |g: f64| {
-        M::WEIGHTS
-            .iter()
-            .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
-            .map(|w| p[w.index])
-            .fold(p[beta].min(g), f64::min)
-    };
-    // The weak-tracking route's weight on Ω_p (`None` on every other route).
-    let weak = (route.weak_tracking && gamma == 0.0)
-        .then_some(tracking)
-        .flatten()
-        .map(|_| WEAK_TRACKING * smallest_weight(1.0));
     let beta_m = route.beta_m_factor
-        * options
-            .beta_m
-            .unwrap_or_else(|| 1e-2 * smallest_weight(if gamma > 0.0 { gamma } else { 1.0 }));
-    let strategy = match weak {
-        Some(_) => StartStrategy::Segment,
-        None => route.start.unwrap_or(options.start),
-    };
+        * options.beta_m.unwrap_or_else(|| {
+            // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
+            let g = if gamma > 0.0 { gamma } else { 1.0 };
+            M::WEIGHTS
+                .iter()
+                .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+                .map(|w| p[w.index])
+                .fold(p[beta].min(g), f64::min)
+                * 1e-2
+        });
+    let strategy = route.start.unwrap_or(options.start);
     let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, strategy)?;
 
     let mut params = base.params().to_vec();
@@ -1889,7 +1861,7 @@ fn solve_route<M: Model>(
     }
     if let Some(i) = tracking {
         params[i] = match start.case {
-            1 => weak.unwrap_or(1.0),
+            1 => 1.0,
             2 => 0.0,
             _ => gamma,
         };
@@ -2035,7 +2007,7 @@ fn solve_route<M: Model>(
     };
     let tracking_stage = |h: &mut Homotopy<'_, M>, events: &mut dyn FnMut(&Event)| {
         if let Some(i) = tracking {
-            if case != 3 && weak.is_none() {
+            if case != 3 {
                 let (from, to) = (tracking_at(0.0), tracking_at(1.0));
                 h.stage("gamma", i, from, to, &tracking_at, &cont, events)?;
                 h.params[i] = to;
@@ -2087,7 +2059,7 @@ fn solve_route<M: Model>(
             }
         }
     }
-    if case == 1 && weak.is_none() {
+    if case == 1 {
         h.tracking = problem.desired.clone(); // weight 0 from here on
     }
     for &i in &smoothing {
@@ -2095,11 +2067,6 @@ fn solve_route<M: Model>(
         if target > 0.0 && h.params[i] != target {
             h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
         }
-    }
-    if let (Some(w), Some(i)) = (weak, tracking) {
-        h.stage("gamma", i, w, 0.0, &move |l| w * (1.0 - l), &cont, events)?;
-        h.params[i] = 0.0;
-        h.tracking = problem.desired.clone(); // weight 0 from here on
     }
     if !problem.conserves_energy() {
         h.constraint_stages(problem, &cont, events)?;
