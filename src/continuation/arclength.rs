@@ -345,6 +345,12 @@ impl std::fmt::Display for ArclengthStatus {
             ),
             ArclengthStatus::MaxSteps => write!(f, "maximum number of steps reached"),
             ArclengthStatus::MaxArclength => write!(f, "maximum arclength reached"),
+            // A converged corrector was rejected by the turn-angle test, not by the solver.
+            ArclengthStatus::StepTooSmall { last_failure } if last_failure.is_success() => write!(
+                f,
+                "step size fell below the minimum (the last steps converged but turned the \
+                 branch by more than max_turn: it bends too sharply to follow)"
+            ),
             ArclengthStatus::StepTooSmall { last_failure } => write!(
                 f,
                 "step size fell below the minimum (last failure: {})",
@@ -1618,6 +1624,13 @@ mod tests {
                 last_failure: Status::Converged
             }
         );
+        // Its message names the turn-angle test, not a "converged" failure.
+        let msg = stiff.status.to_string();
+        assert!(
+            msg.contains("turned the branch by more than max_turn"),
+            "{msg}"
+        );
+        assert!(!msg.contains("converged to the desired accuracy"), "{msg}");
         assert_eq!(stiff.steps(), 1);
         assert!(stiff.records[1..]
             .iter()
