@@ -22,6 +22,27 @@ fn hard(file: &str) -> suslov::config::LoadedProblem {
     suslov::config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The stage, reason and partial result of a hard file that no route solves.
+fn stopped(
+    file: &str,
+) -> (
+    &'static str,
+    String,
+    Box<lie::LieSolution<suslov::model::generated::So3>>,
+) {
+    let loaded = hard(file);
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    match lie::solve(&problem, &loaded.options, &mut |_| {}) {
+        Err(LieSolveError::StageFailed {
+            stage,
+            reason,
+            partial,
+            ..
+        }) => (stage, reason, partial),
+        other => panic!("{file}: a stage should stop: {other:?}"),
+    }
+}
+
 /// Issue #12's γ = 0 file: the default route stops in the tracking stage just short of
 /// γ = 0 (at 6.7e-7, where β is still β_m); the joint route (every weight at once, so β grows
 /// while the tracking weight goes) solves it, verified.
@@ -67,18 +88,8 @@ fn the_joint_route_solves_the_gamma_zero_file_the_default_route_does_not() {
 /// equations are singular.
 #[test]
 fn a_problem_no_route_solves_lists_every_route_tried() {
-    let loaded = hard("issue12_beta_stage_fixed.toml");
-    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("no route solves it");
-    let LieSolveError::StageFailed {
-        stage,
-        partial,
-        reason,
-        ..
-    } = err
-    else {
-        panic!("a stage stops: {err}");
-    };
+    let (stage, reason, partial) = stopped("issue12_beta_stage_fixed.toml");
+    let max_routes = hard("issue12_beta_stage_fixed.toml").options.max_routes;
     assert_eq!(stage, "beta");
     // The evidence: pseudo-arclength gets no further (the branch turns back at the stall, a
     // fold at beta = 0.2985 when measured), and the control collapses (min |xi| from about 1
@@ -104,10 +115,7 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
     assert!(min_xi < 0.1, "{min_xi}");
     let names: Vec<&str> = partial.routes.iter().map(|r| r.route).collect();
     assert_eq!(names[0], "default");
-    assert!(
-        names.len() >= 3 && names.len() <= loaded.options.max_routes,
-        "{names:?}"
-    );
+    assert!(names.len() >= 3 && names.len() <= max_routes, "{names:?}");
     assert!(names.contains(&"joint weights") && names.contains(&"beta first"));
     assert!(partial.routes.iter().all(|r| r.stopped.is_some()));
 }
@@ -119,18 +127,7 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
 #[test]
 fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
     use suslov::lie::solve::{TIME_SCAN, TIME_SCAN_FACTORS};
-    let loaded = hard("issue12_delta_stage_free.toml");
-    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("it stops");
-    let LieSolveError::StageFailed {
-        stage,
-        reason,
-        partial,
-        ..
-    } = err
-    else {
-        panic!("the delta stage stops: {err}");
-    };
+    let (stage, reason, partial) = stopped("issue12_delta_stage_free.toml");
     assert_eq!(stage, "delta");
     assert!(reason.contains("J*(T) increases with T"), "{reason}");
     assert_eq!(partial.time_scan.len(), TIME_SCAN_FACTORS.len());
@@ -254,18 +251,7 @@ fn a_start_that_fails_on_every_route_lists_them_all() {
 /// scan says where the optimal time lies.
 #[test]
 fn a_failed_first_free_time_solve_leaves_a_consistent_partial() {
-    let loaded = hard("samples_071_free_time_start.toml");
-    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("it stops");
-    let LieSolveError::StageFailed {
-        stage,
-        reason,
-        partial,
-        ..
-    } = err
-    else {
-        panic!("a stage stops: {err}");
-    };
+    let (stage, reason, partial) = stopped("samples_071_free_time_start.toml");
     assert_eq!(stage, "free-time start");
     assert!(reason.contains("J*(T) increases with T"), "{reason}");
     assert!(matches!(
