@@ -51,8 +51,9 @@
 //! (with tracking, the full tracking weight from the start even when the desired path leaves
 //! the level set, or misses `Ω_b` at a fixed `b`: then it is bent to the end points,
 //! [`BENT_DESIRED`]), a finer initial mesh, a smaller and a larger `β_m`; after a stalled
-//! weight stage, all weights continued jointly along one parameter, β before tracking, the
-//! starts not taken, a finer mesh.
+//! weight stage, where ξ collapsed the weights of role `Fixed` from 100 times their targets
+//! down to them last ([`FIXED_FROM_ABOVE`]), all weights continued jointly along one
+//! parameter, β before tracking, the starts not taken, a finer mesh.
 //! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
 //! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
 
@@ -144,6 +145,18 @@ pub struct StartChoice {
     pub desired_energy_deviation: f64,
 }
 
+/// The name of the route whose weights of role `Fixed` (α of so(3)) start
+/// [`FIXED_FROM_ABOVE_FACTOR`] times larger and are continued down to their targets last.
+///
+/// For a stop where ξ collapses: a large α holds |ξ| near 1, where the collapse cannot happen,
+/// so the weight stages follow a different branch; the last stage then lowers α to its target,
+/// reaching the target's solution if one exists on that branch, else stopping with the
+/// collapse seen from the other side (stronger evidence than one stall).
+pub const FIXED_FROM_ABOVE: &str = "fixed weights from above";
+
+/// How many times its target a weight of role `Fixed` starts at on [`FIXED_FROM_ABOVE`].
+pub const FIXED_FROM_ABOVE_FACTOR: f64 = 100.0;
+
 /// The order of the weight stages after the analytic start.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum StageOrder {
@@ -174,6 +187,10 @@ pub struct Route {
     pub beta_m_factor: f64,
     /// The initial mesh has this many times the options' intervals.
     pub mesh_factor: usize,
+    /// The weights with the role `Fixed` (α of so(3): the penalty on |ξ| ≠ 1) start at this
+    /// many times their targets and are continued down to them (geometrically) after the
+    /// smoothing stage ([`FIXED_FROM_ABOVE`]).
+    pub fixed_factor: f64,
 }
 
 impl Route {
@@ -184,6 +201,7 @@ impl Route {
         order: StageOrder::Sequential,
         beta_m_factor: 1.0,
         mesh_factor: 1,
+        fixed_factor: 1.0,
     };
 }
 
@@ -1512,10 +1530,11 @@ pub fn solve<M: Model>(
 ///   tracking weight from the start; the desired path bent to the end points when it misses
 ///   them, [`BENT_DESIRED`]), the segment start (both unless the options fix the start), a 4
 ///   times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
-/// - A weight stage (tracking, β, smoothing) that stopped: the weights jointly, β first, the
+/// - A weight stage (tracking, β, smoothing) that stopped: where ξ collapsed toward 0, first
+///   the fixed weights from above ([`FIXED_FROM_ABOVE`]); the weights jointly, β first, the
 ///   starts the default did not take, the finer mesh.
-/// - Any later stage: the weights jointly (a different point to start the later stages
-///   from), the finer mesh.
+/// - Any later stage: the fixed weights from above where ξ collapsed, the weights jointly (a
+///   different point to start the later stages from), the finer mesh.
 pub fn alternatives<M: Model>(
     error: &LieSolveError<M>,
     options: &SolveOptions,
@@ -1530,6 +1549,7 @@ pub fn alternatives<M: Model>(
         order,
         beta_m_factor,
         mesh_factor,
+        fixed_factor: 1.0,
     };
     let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
     let desired = start_route("desired start", StartStrategy::Desired);
@@ -1596,6 +1616,15 @@ pub fn alternatives<M: Model>(
         } => Some(Vec::new()),
         LieSolveError::StageFailed { stage, partial, .. } => {
             let mut r = vec![joint];
+            if xi_extent::<M>(&partial.bvp).0 < XI_COLLAPSE {
+                r.insert(
+                    0,
+                    Route {
+                        fixed_factor: FIXED_FROM_ABOVE_FACTOR,
+                        ..route(FIXED_FROM_ABOVE, None, StageOrder::Sequential, 1.0, 1)
+                    },
+                );
+            }
             if matches!(*stage, "gamma" | "beta" | "eta") {
                 r.push(route("beta first", None, StageOrder::BetaFirst, 1.0, 1));
                 r.extend(other_starts(&partial.start));
@@ -1853,6 +1882,14 @@ fn solve_route<M: Model>(
 
     let mut params = base.params().to_vec();
     params[beta] = beta_m;
+    let fixed: Vec<usize> = M::WEIGHTS
+        .iter()
+        .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+        .map(|w| w.index)
+        .collect();
+    for &i in &fixed {
+        params[i] *= route.fixed_factor;
+    }
     for &i in &smoothing {
         params[i] = 0.0;
     }
@@ -2066,6 +2103,21 @@ fn solve_route<M: Model>(
         let target = p[i];
         if target > 0.0 && h.params[i] != target {
             h.stage("eta", i, 0.0, target, &move |l| l * target, &cont, events)?;
+        }
+    }
+    if route.fixed_factor != 1.0 {
+        for &i in &fixed {
+            let (from, to) = (h.params[i], p[i]);
+            let (lo, hi) = (from.ln(), to.ln());
+            let value = move |l: f64| {
+                if l >= 1.0 {
+                    to
+                } else {
+                    (lo + l * (hi - lo)).exp()
+                }
+            };
+            h.stage(M::PARAM_NAMES[i], i, from, to, &value, &cont, events)?;
+            h.params[i] = to;
         }
     }
     if !problem.conserves_energy() {
