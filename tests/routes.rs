@@ -160,6 +160,25 @@ fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
         .time_scan
         .iter()
         .all(|s| s.cost.is_some() != s.stopped.is_some()));
+    // The samples next to b_p are reached by continuation in b - a from the solution at b_p
+    // (measured: 1.008 below, 2.016 and 2.688 above; their own homotopies had solved 1.008
+    // and 2.016 but not 2.688); where it stops, the sample it was heading for says so
+    // (measured: xi collapses at b - a = 0.929 on the way to 0.672).
+    let continued: Vec<f64> = partial
+        .time_scan
+        .iter()
+        .filter(|s| s.continued && s.cost.is_some())
+        .map(|s| s.span)
+        .collect();
+    assert!(continued.len() >= 2, "{:?}", partial.time_scan);
+    assert!(
+        partial.time_scan.iter().any(|s| s
+            .stopped
+            .as_deref()
+            .is_some_and(|w| w.starts_with("the continuation in b - a from b_p stopped"))),
+        "{:?}",
+        partial.time_scan
+    );
     let last = partial.routes.last().expect("routes");
     assert_eq!(last.route, TIME_SCAN);
     assert!(last.stopped.is_some());

@@ -333,6 +333,11 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
                     "span": s.span,
                     "cost": s.cost,
                     "stopped": s.stopped,
+                    "reached_by": if s.continued {
+                        "continuation in b - a from the fixed-time solution at b_p"
+                    } else {
+                        "its own homotopy"
+                    },
                 }))
                 .collect::<Vec<_>>()),
         );

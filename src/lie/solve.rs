@@ -657,13 +657,15 @@ fn choose_start<M: Model>(
     Ok((segment()?, choice("projected segment", 1)))
 }
 
-/// What a homotopy stage continues: the constants, the end state and the start constraint's
-/// level shift.
+/// What a homotopy stage continues: the constants, the end state, the start constraint's
+/// level shift and the fixed terminal time.
 #[derive(Clone)]
 struct Member {
     params: Vec<f64>,
     omega_b: Vec<f64>,
     level_shift: f64,
+    /// The fixed `b − a`, or `None` for a free terminal time.
+    span: Option<f64>,
 }
 
 /// A homotopy stage: `at(λ, member)` moves a copy of the current member to `λ ∈ [0, 1]` and
@@ -677,6 +679,7 @@ struct StageSpec<'a> {
 }
 
 /// The working state of the homotopy.
+#[derive(Clone)]
 struct Homotopy<'p, M: Model> {
     problem: &'p Problem<M>,
     params: Vec<f64>,
@@ -801,6 +804,7 @@ impl<M: Model> Homotopy<'_, M> {
             params: self.params.clone(),
             omega_b: self.omega_b.clone(),
             level_shift: self.level_shift,
+            span: self.fixed_span,
         }
     }
 
@@ -815,7 +819,6 @@ impl<M: Model> Homotopy<'_, M> {
         let clock = std::time::Instant::now();
         events(&Event::StageStarted { name, from, to });
         let base = self.member();
-        let fixed_span = self.fixed_span;
         let at = |lambda: f64| -> (Member, f64) {
             let mut m = base.clone();
             let reported = (spec.at)(lambda, &mut m);
@@ -826,7 +829,7 @@ impl<M: Model> Homotopy<'_, M> {
             LieBvp {
                 omega_b: m.omega_b,
                 level_shift: m.level_shift,
-                ..self.bvp_with(m.params, fixed_span)
+                ..self.bvp_with(m.params, m.span)
             }
         };
         let shared = std::cell::RefCell::new(&mut *events);
@@ -944,15 +947,17 @@ impl<M: Model> Homotopy<'_, M> {
             }
         }
         let (reached_member, reached) = at(lambda);
-        (self.params, self.omega_b, self.level_shift) = (
+        (self.params, self.omega_b, self.level_shift, self.fixed_span) = (
             reached_member.params,
             reached_member.omega_b,
             reached_member.level_shift,
+            reached_member.span,
         );
         self.solution = solution;
-        if self.fixed_span.is_none() {
-            self.t_span = self.solution.p[SPAN];
-        }
+        self.t_span = match self.fixed_span {
+            Some(span) => span,
+            None => self.solution.p[SPAN],
+        };
         let stage_report = StageReport {
             name,
             parameter: spec.parameter,
@@ -970,6 +975,33 @@ impl<M: Model> Homotopy<'_, M> {
             folds,
         };
         self.record(stage_report, spec.parameter, reached, events)
+    }
+
+    /// Continue the fixed `b − a` from its current value to `span`, geometrically (the
+    /// weights stay): the value-function scan's path between its samples.
+    fn horizon_stage(&mut self, span: f64, options: &SolveOptions) -> Result<(), LieSolveError<M>> {
+        let from = self.t_span;
+        let (lo, hi) = (from.ln(), span.ln());
+        let at = move |l: f64, m: &mut Member| {
+            let t = if l >= 1.0 {
+                span
+            } else {
+                (lo + l * (hi - lo)).exp()
+            };
+            m.span = Some(t);
+            t
+        };
+        self.stage_with(
+            &StageSpec {
+                name: "b - a",
+                parameter: "b - a",
+                from,
+                to: span,
+                at: &at,
+            },
+            &continuation_options(options),
+            &mut |_| {},
+        )
     }
 
     /// The constraint level `⟨Ω, ξ⟩ − γ` (`φ`) of the current solution, at `a` (it is conserved).
@@ -1658,6 +1690,9 @@ pub struct TimeSample {
     pub cost: Option<f64>,
     /// Why there is no cost (the solve stopped, or its solution failed its checks).
     pub stopped: Option<String>,
+    /// Whether the sample was reached by continuation in `b − a` from the fixed-time solution
+    /// at `b_p` (else it was solved from its own analytic start).
+    pub continued: bool,
 }
 
 /// What the value-function scan found when it could not lead to a free-time solution.
@@ -1682,38 +1717,109 @@ fn time_scan<M: Model>(
         max_routes: options.max_routes.min(2),
         ..options.clone()
     };
-    let mut samples = Vec::new();
-    let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
-    for f in TIME_SCAN_FACTORS {
-        let span = f * t_p;
+    let verified = |sol: LieSolution<M>, continued: bool| {
+        let checked = super::verify::verify_solution(&sol);
+        if checked.verification.passed() {
+            let cost = checked.diagnostics.cost;
+            (
+                TimeSample {
+                    span: sol.t_span,
+                    cost: Some(cost),
+                    stopped: None,
+                    continued,
+                },
+                Some(sol),
+            )
+        } else {
+            (
+                TimeSample {
+                    span: sol.t_span,
+                    cost: None,
+                    stopped: Some(format!("unverified: {:?}", checked.verification.verdict())),
+                    continued,
+                },
+                None,
+            )
+        }
+    };
+    // A fixed-time problem solved from its own analytic start (the routes inside each solve
+    // are its own business; the samples are reported).
+    let own = |span: f64| {
         let mut fixed = problem.clone();
         fixed.terminal = TerminalTime::Fixed(problem.t0 + span);
-        // The routes inside each solve are its own business (the samples are reported).
-        let sample = match solve(&fixed, &fixed_options, &mut |_| {}) {
-            Ok(sol) => {
-                let checked = super::verify::verify_solution(&sol);
-                if checked.verification.passed() {
-                    let cost = checked.diagnostics.cost;
-                    solved.push((span, cost, sol));
-                    TimeSample {
-                        span,
-                        cost: Some(cost),
-                        stopped: None,
+        match solve(&fixed, &fixed_options, &mut |_| {}) {
+            Ok(sol) => verified(sol, false),
+            Err(e) => (
+                TimeSample {
+                    span,
+                    cost: None,
+                    stopped: Some(e.to_string()),
+                    continued: false,
+                },
+                None,
+            ),
+        }
+    };
+    let n = TIME_SCAN_FACTORS.len();
+    let mut found: Vec<Option<(TimeSample, Option<LieSolution<M>>)>> = vec![None; n];
+    // Where the continuation of a side stopped: the sample it was heading for, and why.
+    let mut ended: Vec<(usize, String)> = Vec::new();
+    // From the fixed-time solution at b_p, continue b − a down and up through the factors
+    // (the samples then lie on one branch); where the continuation stops, the remaining
+    // samples of that side are solved from their own starts.
+    let centre = TIME_SCAN_FACTORS.iter().position(|f| *f == 1.0);
+    if let Some(k) = centre {
+        let (sample, sol) = own(t_p);
+        if let Some(sol) = &sol {
+            let down: Vec<usize> = (0..k).rev().collect();
+            let up: Vec<usize> = (k + 1..n).collect();
+            for side in [down, up] {
+                let mut h = horizon_homotopy(problem, options, sol);
+                for i in side {
+                    let span = TIME_SCAN_FACTORS[i] * t_p;
+                    if let Err(e) = h.horizon_stage(span, options) {
+                        ended.push((i, e.to_string()));
+                        break;
                     }
-                } else {
-                    TimeSample {
-                        span,
-                        cost: None,
-                        stopped: Some(format!("unverified: {:?}", checked.verification.verdict())),
-                    }
+                    let mut polished = h.clone();
+                    found[i] = Some(
+                        match polished.finish(
+                            options,
+                            &|tol| bvp_options(options, tol),
+                            &mut |_| {},
+                        ) {
+                            Ok(done) => verified(done, true),
+                            Err(e) => (
+                                TimeSample {
+                                    span,
+                                    cost: None,
+                                    stopped: Some(e.to_string()),
+                                    continued: true,
+                                },
+                                None,
+                            ),
+                        },
+                    );
                 }
             }
-            Err(e) => TimeSample {
-                span,
-                cost: None,
-                stopped: Some(e.to_string()),
-            },
-        };
+        }
+        found[k] = Some((sample, sol));
+    }
+    let mut samples = Vec::new();
+    let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
+    for (i, (f, got)) in TIME_SCAN_FACTORS.iter().zip(found).enumerate() {
+        let (mut sample, sol) = got.unwrap_or_else(|| own(f * t_p));
+        if let (Some(why), Some((_, ended))) =
+            (&mut sample.stopped, ended.iter().find(|e| e.0 == i))
+        {
+            *why = format!(
+                "the continuation in b - a from b_p stopped before it: {ended}; its own \
+                 homotopy: {why}"
+            );
+        }
+        if let (Some(cost), Some(sol)) = (sample.cost, sol) {
+            solved.push((sample.span, cost, sol));
+        }
         samples.push(sample);
     }
     let listed = samples
@@ -1811,11 +1917,7 @@ fn free_from_fixed<M: Model>(
     };
     let free = h.bvp_with(h.params.clone(), None);
     let guess = Guess::from_solution(&h.solution).with_parameters(free.parameters(span, mu));
-    let bvp_opts = |tol: f64| bvp::Options {
-        tol,
-        max_nodes: options.max_nodes,
-        ..Default::default()
-    };
+    let bvp_opts = |tol: f64| bvp_options(options, tol);
     h.single_solve(
         "free time from J*(T)",
         &guess,
@@ -1823,6 +1925,51 @@ fn free_from_fixed<M: Model>(
         events,
     )?;
     h.finish(options, &bvp_opts, events)
+}
+
+/// The BVP solver's options for a solve at `tol`.
+fn bvp_options(options: &SolveOptions, tol: f64) -> bvp::Options {
+    bvp::Options {
+        tol,
+        max_nodes: options.max_nodes,
+        ..Default::default()
+    }
+}
+
+/// The options of the homotopy's natural continuation (a failed Newton solve shortens the
+/// step at once: no mesh refinement inside a step).
+fn continuation_options(options: &SolveOptions) -> continuation::Options {
+    continuation::Options {
+        bvp: bvp::Options {
+            max_newton_failures: 0,
+            max_newton_iter: 15,
+            ..bvp_options(options, options.continuation_tol)
+        },
+        initial_step: Some(0.2),
+        ..Default::default()
+    }
+}
+
+/// The homotopy standing on `fixed`, a verified solution of `problem` at a fixed terminal
+/// time with the target weights, ready to continue its `b − a` ([`Homotopy::horizon_stage`]).
+fn horizon_homotopy<'p, M: Model>(
+    problem: &'p Problem<M>,
+    options: &SolveOptions,
+    fixed: &LieSolution<M>,
+) -> Homotopy<'p, M> {
+    Homotopy {
+        problem,
+        params: problem.params().to_vec(),
+        omega_b: problem.omega_b.clone(),
+        level_shift: 0.0,
+        fixed_span: Some(fixed.t_span),
+        t_span: fixed.t_span,
+        solution: fixed.bvp.clone(),
+        start: fixed.start.clone(),
+        stages: fixed.stages.clone(),
+        tolerance: options.tol,
+        tracking: problem.desired.clone(),
+    }
 }
 
 /// How much tighter the `refine` stages solve a solution that failed its a-posteriori checks
@@ -1943,20 +2090,8 @@ fn solve_route<M: Model>(
             "the singular control xi_p is undefined at t = {t} (Property 3 fails there)"
         )));
     }
-    let bvp_opts = |tol: f64| bvp::Options {
-        tol,
-        max_nodes: options.max_nodes,
-        ..Default::default()
-    };
-    let cont = continuation::Options {
-        bvp: bvp::Options {
-            max_newton_failures: 0,
-            max_newton_iter: 15,
-            ..bvp_opts(options.continuation_tol)
-        },
-        initial_step: Some(0.2),
-        ..Default::default()
-    };
+    let bvp_opts = |tol: f64| bvp_options(options, tol);
+    let cont = continuation_options(options);
     let clock = std::time::Instant::now();
     events(&Event::StageStarted {
         name: "start",
