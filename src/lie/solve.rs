@@ -854,6 +854,7 @@ impl<M: Model> Homotopy<'_, M> {
             },
         )?;
         let xi_before = xi_extent::<M>(&self.solution);
+        let condition_before = self.solution.stats.bc_condition;
         let mut lambda = outcome.lambda;
         let mut solution = outcome.solution.clone();
         let mut steps = outcome.steps();
@@ -942,6 +943,10 @@ impl<M: Model> Homotopy<'_, M> {
                 &at(lambda).0.params,
                 self.problem.params(),
             ) {
+                reason.push_str("; ");
+                reason.push_str(&why);
+            }
+            if let Some(why) = conditioning_growth(condition_before, solution.stats.bc_condition) {
                 reason.push_str("; ");
                 reason.push_str(&why);
             }
@@ -1368,6 +1373,24 @@ fn xi_collapse<M: Model>(
         why.push_str(&format!("; lower {name_b} (= {})", target[beta.index]));
     }
     Some(why)
+}
+
+/// How much the boundary conditions' condition number (`bvp::Stats::bc_condition`: the
+/// largest change of the solution per unit change of one boundary condition) must grow along
+/// a stage that stops for the stop to report it.
+const CONDITIONING_GROWTH: f64 = 10.0;
+
+/// The evidence of a stop whose branch becomes ill-conditioned: the condition number grew by
+/// more than [`CONDITIONING_GROWTH`] from the stage's start to the last solution reached (as
+/// at a fold, or where the target problem's solution is not isolated).
+fn conditioning_growth(before: f64, at_stop: f64) -> Option<String> {
+    (before.is_finite() && before > 0.0 && at_stop > CONDITIONING_GROWTH * before).then(|| {
+        format!(
+            "the boundary conditions' condition number grew from {before:.2e} at the \
+             stage's start to {at_stop:.2e} at the last solution reached (the branch \
+             approaches a singular point: a fold, or a solution that is not isolated)"
+        )
+    })
 }
 
 /// `a + λ (b − a)`, entrywise.
