@@ -389,7 +389,7 @@ pub struct SolverSection {
 }
 
 /// Cap on `solver.max_routes`: every route listed by `lie::solve::alternatives` after the
-/// longest list (a failed start: 5 others) with room to spare.
+/// longest list (a failed start: 6 others) with room to spare.
 pub const MAX_ROUTES: usize = 10;
 
 /// A problem file turned into something to solve.

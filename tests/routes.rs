@@ -382,3 +382,29 @@ fn a_branch_that_turns_singular_says_so() {
         "{default}"
     );
 }
+
+/// Corpus problem spiral-028 (β = 1.4e-3, a spiral at a fixed b): every analytic start fails
+/// at `β_m` = β/100 (the default), β/10 and β/1000, and the desired start at `β_m = β` solves
+/// it (no β stage), verified.
+#[test]
+fn a_start_too_stiff_at_a_small_beta_m_solves_at_the_target_beta() {
+    use suslov::lie::solve::BETA_M_AT_BETA;
+    let loaded = hard("spiral_028_start_at_beta.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
+    let routes = solved_by(&sol);
+    assert_eq!(routes.last(), Some(&(BETA_M_AT_BETA, true)), "{routes:?}");
+    assert!(routes[..routes.len() - 1].iter().all(|r| !r.1));
+    assert!(sol.routes[0]
+        .stopped
+        .as_deref()
+        .is_some_and(|r| r.starts_with("cannot build the analytic start")));
+    let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
+    assert!(!names.contains(&"beta"), "{names:?}");
+    assert_eq!(
+        sol.start.beta_m,
+        problem.params()[suslov::model::generated::idx::BETA]
+    );
+    let v = lie::verify_solution(&sol);
+    assert!(v.verification.passed(), "{:?}", v.verification.verdict());
+}

@@ -50,7 +50,8 @@
 //! the default stopped ([`alternatives`]): after a failed start, the other analytic starts
 //! (with tracking, the full tracking weight from the start even when the desired path leaves
 //! the level set, or misses `Ω_b` at a fixed `b`: then it is bent to the end points,
-//! [`BENT_DESIRED`]), a finer initial mesh, a smaller and a larger `β_m`; after a stalled
+//! [`BENT_DESIRED`]), a finer initial mesh, `β_m = β` ([`BETA_M_AT_BETA`]), a smaller and a
+//! larger `β_m`; after a stalled
 //! weight stage, where ξ collapsed the weights of role `Fixed` from 100 times their targets
 //! down to them last ([`FIXED_FROM_ABOVE`]), all weights continued jointly along one
 //! parameter, β before tracking, the starts not taken, a finer mesh.
@@ -125,7 +126,7 @@ impl Default for SolveOptions {
             initial_intervals: 100,
             max_nodes: 20_000,
             start: StartStrategy::Auto,
-            max_routes: 6,
+            max_routes: 7,
         }
     }
 }
@@ -153,6 +154,12 @@ pub struct StartChoice {
 /// reaching the target's solution if one exists on that branch, else stopping with the
 /// collapse seen from the other side (stronger evidence than one stall).
 pub const FIXED_FROM_ABOVE: &str = "fixed weights from above";
+
+/// The name of the route whose start uses `β_m = β` (the target), from the desired path when
+/// the tracking weight is positive: no β stage. Corpus problems spiral-028 and spiral-089
+/// (a spiral at a fixed `b`, `β` = 1.4e-3 and 5.5e-3): every start fails at `β_m` = β/1000,
+/// β/100 and β/10 from either path, and the desired start solves at `β_m = β`.
+pub const BETA_M_AT_BETA: &str = "start at the target beta";
 
 /// How many times its target a weight of role `Fixed` starts at on [`FIXED_FROM_ABOVE`].
 pub const FIXED_FROM_ABOVE_FACTOR: f64 = 100.0;
@@ -191,6 +198,9 @@ pub struct Route {
     /// many times their targets and are continued down to them (geometrically) after the
     /// smoothing stage ([`FIXED_FROM_ABOVE`]).
     pub fixed_factor: f64,
+    /// `β_m` is the target β itself: the start solves the problem at its own β, and there is
+    /// no β stage ([`BETA_M_AT_BETA`]).
+    pub beta_m_at_beta: bool,
 }
 
 impl Route {
@@ -202,6 +212,7 @@ impl Route {
         beta_m_factor: 1.0,
         mesh_factor: 1,
         fixed_factor: 1.0,
+        beta_m_at_beta: false,
     };
 }
 
@@ -1584,7 +1595,8 @@ pub fn solve<M: Model>(
 /// - A failed start: with a positive tracking weight in `problem`, the desired start (the full
 ///   tracking weight from the start; the desired path bent to the end points when it misses
 ///   them, [`BENT_DESIRED`]), the segment start (both unless the options fix the start), a 4
-///   times finer initial mesh, `β_m` 10 times smaller, and 10 times larger.
+///   times finer initial mesh, the start at the target β ([`BETA_M_AT_BETA`]), `β_m` 10
+///   times smaller, and 10 times larger.
 /// - A weight stage (tracking, β, smoothing) that stopped: where ξ collapsed toward 0, first
 ///   the fixed weights from above ([`FIXED_FROM_ABOVE`]); the weights jointly, β first, the
 ///   starts the default did not take, the finer mesh.
@@ -1605,6 +1617,7 @@ pub fn alternatives<M: Model>(
         beta_m_factor,
         mesh_factor,
         fixed_factor: 1.0,
+        beta_m_at_beta: false,
     };
     let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
     let desired = start_route("desired start", StartStrategy::Desired);
@@ -1642,6 +1655,17 @@ pub fn alternatives<M: Model>(
                 r.push(segment);
             }
             r.push(finer);
+            r.push(Route {
+                beta_m_at_beta: true,
+                ..route(
+                    BETA_M_AT_BETA,
+                    (tracking && options.start == StartStrategy::Auto)
+                        .then_some(StartStrategy::Desired),
+                    StageOrder::Sequential,
+                    1.0,
+                    1,
+                )
+            });
             r.push(route(
                 "smaller beta_m",
                 None,
@@ -2036,17 +2060,21 @@ fn solve_route<M: Model>(
         )));
     }
     let base = constraint_free(problem)?;
-    let beta_m = route.beta_m_factor
-        * options.beta_m.unwrap_or_else(|| {
-            // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
-            let g = if gamma > 0.0 { gamma } else { 1.0 };
-            M::WEIGHTS
-                .iter()
-                .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
-                .map(|w| p[w.index])
-                .fold(p[beta].min(g), f64::min)
-                * 1e-2
-        });
+    let beta_m = if route.beta_m_at_beta {
+        p[beta]
+    } else {
+        route.beta_m_factor
+            * options.beta_m.unwrap_or_else(|| {
+                // 1e-2 · min(fixed positive weights, β, γ or 1): for so(3), 1e-2 min(α, β, γ or 1).
+                let g = if gamma > 0.0 { gamma } else { 1.0 };
+                M::WEIGHTS
+                    .iter()
+                    .filter(|w| w.role == HomotopyRole::Fixed && p[w.index] > 0.0)
+                    .map(|w| p[w.index])
+                    .fold(p[beta].min(g), f64::min)
+                    * 1e-2
+            })
+    };
     let strategy = route.start.unwrap_or(options.start);
     let (omega_p, start) = choose_start(&base, b_p, beta_m, gamma > 0.0, strategy)?;
 
