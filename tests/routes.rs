@@ -22,6 +22,20 @@ fn hard(file: &str) -> suslov::config::LoadedProblem {
     suslov::config::load(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
+/// The smallest |ξ| at the nodes of an so(3) solution.
+fn min_xi(sol: &suslov::bvp::Solution) -> f64 {
+    sol.y
+        .chunks_exact(suslov::model::generated::N_STATE)
+        .map(|y| {
+            y[suslov::model::generated::XI]
+                .iter()
+                .map(|v| v * v)
+                .sum::<f64>()
+                .sqrt()
+        })
+        .fold(f64::INFINITY, f64::min)
+}
+
 /// The stage, reason and partial result of a hard file that no route solves.
 fn stopped(
     file: &str,
@@ -114,18 +128,7 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
     let default = partial.routes[0].stopped.as_deref().unwrap_or_default();
     assert!(default.starts_with("stage 'beta'"), "{default}");
     assert!(default.contains("xi collapses toward 0"), "{default}");
-    let min_xi = partial
-        .bvp
-        .y
-        .chunks_exact(suslov::model::generated::N_STATE)
-        .map(|y| {
-            y[suslov::model::generated::XI]
-                .iter()
-                .map(|v| v * v)
-                .sum::<f64>()
-                .sqrt()
-        })
-        .fold(f64::INFINITY, f64::min);
+    let min_xi = min_xi(&partial.bvp);
     assert!(min_xi < 0.15, "{min_xi}");
     let names: Vec<&str> = partial.routes.iter().map(|r| r.route).collect();
     assert_eq!(names[0], "default");
@@ -407,4 +410,20 @@ fn a_start_too_stiff_at_a_small_beta_m_solves_at_the_target_beta() {
     );
     let v = lie::verify_solution(&sol);
     assert!(v.verification.passed(), "{:?}", v.verification.verdict());
+}
+
+/// Corpus problem fast-139: the polish fails (1e-7 to 1e-8) on a solution whose ξ nearly
+/// vanishes (measured min |ξ| 0.011, α = 0.16 against β = 2.98), and the stop says so: the
+/// collapse, √(α/β) and the turning rate.
+#[test]
+fn a_polish_that_fails_where_xi_nearly_vanishes_says_so() {
+    let (stage, reason, partial) = stopped("fast_139_polish_collapse.toml");
+    assert_eq!(stage, "polish");
+    assert!(
+        reason.contains("xi nearly vanishes on the solution"),
+        "{reason}"
+    );
+    assert!(reason.contains("raise alpha"), "{reason}");
+    let min_xi = min_xi(&partial.bvp);
+    assert!(min_xi < 0.05, "{min_xi}");
 }

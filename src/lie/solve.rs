@@ -949,7 +949,7 @@ impl<M: Model> Homotopy<'_, M> {
         }
         if let Some(reason) = &mut status {
             if let Some(why) = xi_collapse::<M>(
-                xi_before,
+                Some(xi_before),
                 &solution,
                 &at(lambda).0.params,
                 self.problem.params(),
@@ -1242,12 +1242,19 @@ impl<M: Model> Homotopy<'_, M> {
                 } else if ratio < 1e-1 && good * 1e-1 > tol * (1.0 + 1e-9) {
                     ratio = 1e-1;
                 } else {
-                    failure = Some(format!(
+                    let mut why = format!(
                         "{:?}: {} (the direct solve at {tol:e} failed too; stepping the \
                          tolerance down from {from_tol:e}, the step from {good:e} to {t:e} failed)",
                         sol.status,
                         sol.status.message()
-                    ));
+                    );
+                    if let Some(collapse) =
+                        xi_collapse::<M>(None, &self.solution, &self.params, self.problem.params())
+                    {
+                        why.push_str("; ");
+                        why.push_str(&collapse);
+                    }
+                    failure = Some(why);
                 }
             }
         }
@@ -1349,27 +1356,35 @@ const XI_COLLAPSE: f64 = 0.25;
 /// charges `β/2 |ξ̇|²` and holds `|ξ|` near 1 by `α/4 (|ξ|² − 1)²` (every shipped model) is
 /// lowered by shrinking `ξ` wherever `ê` turns: pointwise (neglecting `d|ξ|/dt`) the optimal
 /// `|ξ|² = 1 − (β/α) |ê̇|²`, which reaches 0 where `|ê̇| ≥ sqrt(α/β)`. `before` is
-/// [`xi_extent`] at the stage's start; the weights named are the model's `Beta` weight and,
+/// [`xi_extent`] at the stage's start (`None` for a single solve, the polish: then a small
+/// `min |ξ|` alone is the evidence); the weights named are the model's `Beta` weight and,
 /// when it has exactly one, its `Fixed` weight, at `params` (the stall) and `target` (the
 /// problem's).
 fn xi_collapse<M: Model>(
-    before: (f64, f64),
+    before: Option<(f64, f64)>,
     sol: &Solution,
     params: &[f64],
     target: &[f64],
 ) -> Option<String> {
     let (min_xi, max_turn) = xi_extent::<M>(sol);
-    if !(min_xi < XI_COLLAPSE && min_xi < 0.5 * before.0) {
+    if !(min_xi < XI_COLLAPSE && before.is_none_or(|b| min_xi < 0.5 * b.0)) {
         return None;
     }
     let beta = M::WEIGHTS.iter().find(|w| w.role == HomotopyRole::Beta)?;
     let mut fixed = M::WEIGHTS.iter().filter(|w| w.role == HomotopyRole::Fixed);
     let (b, name_b) = (params[beta.index], M::PARAM_NAMES[beta.index]);
-    let mut why = format!(
-        "xi collapses toward 0 (min |xi| {:.3} at the stage's start, {min_xi:.3} here), where \
-         Suslov's equations are singular: the cost shrinks xi wherever its direction turns fast",
-        before.0
-    );
+    let mut why = match before {
+        Some(before) => format!(
+            "xi collapses toward 0 (min |xi| {:.3} at the stage's start, {min_xi:.3} here), \
+             where Suslov's equations are singular: the cost shrinks xi wherever its direction \
+             turns fast",
+            before.0
+        ),
+        None => format!(
+            "xi nearly vanishes on the solution (min |xi| {min_xi:.3}), where Suslov's equations \
+             are singular: the cost shrinks xi wherever its direction turns fast"
+        ),
+    };
     if let (Some(alpha), None) = (fixed.next(), fixed.next()) {
         let (a, name_a) = (params[alpha.index], M::PARAM_NAMES[alpha.index]);
         why.push_str(&format!(
