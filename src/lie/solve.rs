@@ -1939,7 +1939,7 @@ fn time_scan<M: Model>(
     }
     // An interior minimum: the free-time problem from the fixed-time solution there.
     let (span, cost, sol) = solved.swap_remove(best);
-    match free_from_fixed(problem, options, sol, events) {
+    match free_from_fixed(problem, options, &sol, events) {
         Ok(free) => Ok(free),
         Err(e) => Err(TimeScanFinding {
             samples,
@@ -1957,7 +1957,7 @@ fn time_scan<M: Model>(
 fn free_from_fixed<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
-    fixed: LieSolution<M>,
+    fixed: &LieSolution<M>,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     let span = fixed.t_span;
@@ -1965,17 +1965,8 @@ fn free_from_fixed<M: Model>(
         .mu_index()
         .map_or(0.0, |i| fixed.bvp.p[i]);
     let mut h = Homotopy {
-        problem,
-        params: problem.params().to_vec(),
-        omega_b: problem.omega_b.clone(),
-        level_shift: 0.0,
         fixed_span: None,
-        t_span: span,
-        solution: fixed.bvp,
-        start: fixed.start,
-        stages: fixed.stages,
-        tolerance: options.tol,
-        tracking: problem.desired.clone(),
+        ..horizon_homotopy(problem, options, fixed)
     };
     let free = h.bvp_with(h.params.clone(), None);
     let guess = Guess::from_solution(&h.solution).with_parameters(free.parameters(span, mu));
@@ -2013,7 +2004,8 @@ fn continuation_options(options: &SolveOptions) -> continuation::Options {
 }
 
 /// The homotopy standing on `fixed`, a verified solution of `problem` at a fixed terminal
-/// time with the target weights, ready to continue its `b − a` ([`Homotopy::horizon_stage`]).
+/// time with the target weights, ready to continue its `b − a` ([`Homotopy::horizon_stage`])
+/// or to free it ([`free_from_fixed`]).
 fn horizon_homotopy<'p, M: Model>(
     problem: &'p Problem<M>,
     options: &SolveOptions,
