@@ -148,6 +148,13 @@ fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
     let (stage, reason, partial) = stopped("issue12_delta_stage_free.toml");
     assert_eq!(stage, "delta");
     assert!(reason.contains("J*(T) increases with T"), "{reason}");
+    // Why no shorter T was solved: continuing b - a down from b_p, xi collapses (measured at
+    // b - a = 0.929, min |xi| 0.031).
+    assert!(
+        reason.contains("continuing b - a from b_p stopped at b - a = 0.9")
+            && reason.contains("where xi collapses"),
+        "{reason}"
+    );
     assert_eq!(partial.time_scan.len(), TIME_SCAN_FACTORS.len());
     let solved: Vec<(f64, f64)> = partial
         .time_scan

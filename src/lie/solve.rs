@@ -1826,6 +1826,9 @@ fn time_scan<M: Model>(
     let mut found: Vec<Option<(TimeSample, Option<LieSolution<M>>)>> = vec![None; n];
     // Where the continuation of a side stopped: the sample it was heading for, and why.
     let mut ended: Vec<(usize, String)> = Vec::new();
+    // Where the continuation toward shorter (index 0) and longer (1) b − a stopped, and what
+    // its last solution showed there.
+    let mut edge: [Option<String>; 2] = [None, None];
     // From the fixed-time solution at b_p, continue b − a down and up through the factors
     // (the samples then lie on one branch); where the continuation stops, the remaining
     // samples of that side are solved from their own starts.
@@ -1840,6 +1843,7 @@ fn time_scan<M: Model>(
                 for i in side {
                     let span = TIME_SCAN_FACTORS[i] * t_p;
                     if let Err(e) = h.horizon_stage(span, options) {
+                        edge[usize::from(i > k)] = horizon_edge::<M>(&e);
                         ended.push((i, e.to_string()));
                         break;
                     }
@@ -1916,7 +1920,7 @@ fn time_scan<M: Model>(
         });
     }
     if !interior {
-        let (side, bound) = if best == 0 {
+        let (side, mut bound) = if best == 0 {
             (
                 "increases",
                 format!("below {lo:.4}, the shortest b - a solved"),
@@ -1927,6 +1931,9 @@ fn time_scan<M: Model>(
                 format!("above {hi:.4}, the longest b - a solved"),
             )
         };
+        if let Some(edge) = &edge[usize::from(best != 0)] {
+            bound.push_str(&format!("; continuing b - a from b_p {}", edge));
+        }
         return Err(TimeScanFinding {
             samples,
             finding: format!(
@@ -1950,6 +1957,27 @@ fn time_scan<M: Model>(
             ),
         }),
     }
+}
+
+/// What the value-function scan's continuation in `b − a` showed where it stopped (`e`, the
+/// horizon stage's error): the `b − a` reached and, from its last solution, a collapse of `ξ`
+/// or the folds passed.
+fn horizon_edge<M: Model>(e: &LieSolveError<M>) -> Option<String> {
+    let LieSolveError::StageFailed {
+        reached, partial, ..
+    } = e
+    else {
+        return None;
+    };
+    let (min_xi, _) = xi_extent::<M>(&partial.bvp);
+    let folds = partial.stages.last().map_or(0, |s| s.folds.len());
+    let mut what = format!("stopped at b - a = {reached:.4}");
+    if min_xi < XI_COLLAPSE {
+        what.push_str(&format!(", where xi collapses (min |xi| {min_xi:.3})"));
+    } else if folds > 0 {
+        what.push_str(&format!(" after {folds} fold(s) of the branch"));
+    }
+    Some(what)
 }
 
 /// The free-time problem solved from `fixed`, a solution of the same problem at a fixed
