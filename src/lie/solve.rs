@@ -1740,6 +1740,11 @@ pub const TIME_SCAN: &str = "fixed-time scan";
 /// (the desired path is the problem's, also beyond its own interval).
 pub const TIME_SCAN_FACTORS: &[f64] = &[0.125, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0, 4.0, 8.0];
 
+/// Where `J*(T)` still falls at an end of [`TIME_SCAN_FACTORS`], the scan continues `b − a`
+/// past it by these factors (divided at the short end, multiplied at the long end) while
+/// `J*` keeps falling.
+pub const TIME_SCAN_EXTENSION: &[f64] = &[2.0, 4.0, 8.0];
+
 /// Fewest verified samples from which the scan calls `J*(T)` monotone.
 const TIME_SCAN_MIN_SOLVED: usize = 3;
 
@@ -1833,39 +1838,66 @@ fn time_scan<M: Model>(
     // (the samples then lie on one branch); where the continuation stops, the remaining
     // samples of that side are solved from their own starts.
     let centre = TIME_SCAN_FACTORS.iter().position(|f| *f == 1.0);
+    // The sample at the homotopy's current b − a: polished (a copy) and verified.
+    let sample_here = |h: &Homotopy<'_, M>| {
+        let mut polished = h.clone();
+        match polished.finish(options, &|tol| bvp_options(options, tol), &mut |_| {}) {
+            Ok(done) => verified(done, true),
+            Err(e) => (
+                TimeSample {
+                    span: h.t_span,
+                    cost: None,
+                    stopped: Some(e.to_string()),
+                    continued: true,
+                },
+                None,
+            ),
+        }
+    };
+    // Samples beyond the factors' ends (index 0: shorter, 1: longer), while J* keeps falling.
+    let mut beyond: [Vec<(TimeSample, Option<LieSolution<M>>)>; 2] = [Vec::new(), Vec::new()];
     if let Some(k) = centre {
         let (sample, sol) = own(t_p);
         if let Some(sol) = &sol {
+            found[k] = Some((sample.clone(), None));
             let down: Vec<usize> = (0..k).rev().collect();
             let up: Vec<usize> = (k + 1..n).collect();
-            for side in [down, up] {
+            for (side, indices) in [down, up].into_iter().enumerate() {
                 let mut h = horizon_homotopy(problem, options, sol);
-                for i in side {
-                    let span = TIME_SCAN_FACTORS[i] * t_p;
-                    if let Err(e) = h.horizon_stage(span, options) {
-                        edge[usize::from(i > k)] = horizon_edge::<M>(&e);
+                let mut completed = true;
+                for &i in &indices {
+                    if let Err(e) = h.horizon_stage(TIME_SCAN_FACTORS[i] * t_p, options) {
+                        edge[side] = horizon_edge::<M>(&e);
                         ended.push((i, e.to_string()));
+                        completed = false;
                         break;
                     }
-                    let mut polished = h.clone();
-                    found[i] = Some(
-                        match polished.finish(
-                            options,
-                            &|tol| bvp_options(options, tol),
-                            &mut |_| {},
-                        ) {
-                            Ok(done) => verified(done, true),
-                            Err(e) => (
-                                TimeSample {
-                                    span,
-                                    cost: None,
-                                    stopped: Some(e.to_string()),
-                                    continued: true,
-                                },
-                                None,
-                            ),
-                        },
-                    );
+                    found[i] = Some(sample_here(&h));
+                }
+                // Past the end while J* still falls toward it: the optimal time may lie
+                // beyond the factors; continue T (no own starts) until J* rises again or the
+                // branch stops, which the finding then names.
+                let cost_at = |i: usize| found[i].as_ref().and_then(|f| f.0.cost);
+                let (end, before) = match indices.as_slice() {
+                    [.., before, end] => (*end, *before),
+                    [end] => (*end, k),
+                    [] => continue,
+                };
+                let mut last = match (cost_at(end), cost_at(before)) {
+                    (Some(j_end), Some(j_before)) if completed && j_end < j_before => Some(j_end),
+                    _ => None,
+                };
+                let end_span = TIME_SCAN_FACTORS[end] * t_p;
+                for f in TIME_SCAN_EXTENSION {
+                    let Some(previous) = last else { break };
+                    let span = if side == 0 { end_span / f } else { end_span * f };
+                    if let Err(e) = h.horizon_stage(span, options) {
+                        edge[side] = horizon_edge::<M>(&e);
+                        break;
+                    }
+                    let (sample, sol) = sample_here(&h);
+                    last = sample.cost.filter(|j| *j < previous);
+                    beyond[side].push((sample, sol));
                 }
             }
         }
@@ -1873,16 +1905,25 @@ fn time_scan<M: Model>(
     }
     let mut samples = Vec::new();
     let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
-    for (i, (f, got)) in TIME_SCAN_FACTORS.iter().zip(found).enumerate() {
-        let (mut sample, sol) = got.unwrap_or_else(|| own(f * t_p));
-        if let (Some(why), Some((_, ended))) =
-            (&mut sample.stopped, ended.iter().find(|e| e.0 == i))
-        {
-            *why = format!(
-                "the continuation in b - a from b_p stopped before it: {ended}; its own \
-                 homotopy: {why}"
-            );
-        }
+    let [shorter, longer] = beyond;
+    let main = TIME_SCAN_FACTORS
+        .iter()
+        .zip(found)
+        .enumerate()
+        .map(|(i, (f, got))| {
+            let (mut sample, sol) = got.unwrap_or_else(|| own(f * t_p));
+            if let (Some(why), Some((_, ended))) =
+                (&mut sample.stopped, ended.iter().find(|e| e.0 == i))
+            {
+                *why = format!(
+                    "the continuation in b - a from b_p stopped before it: {ended}; its own \
+                     homotopy: {why}"
+                );
+            }
+            (sample, sol)
+        })
+        .collect::<Vec<_>>();
+    for (sample, sol) in shorter.into_iter().rev().chain(main).chain(longer) {
         if let (Some(cost), Some(sol)) = (sample.cost, sol) {
             solved.push((sample.span, cost, sol));
         }
@@ -1909,13 +1950,14 @@ fn time_scan<M: Model>(
     let (lo, hi) = (solved[0].0, solved[solved.len() - 1].0);
     let interior = best > 0 && best + 1 < solved.len();
     if !interior && solved.len() < TIME_SCAN_MIN_SOLVED {
+        let tried = samples.len();
         return Err(TimeScanFinding {
             samples,
             finding: format!(
                 "too few fixed-time problems solved ({} of {}) to locate the optimal terminal \
                  time ({listed})",
                 solved.len(),
-                TIME_SCAN_FACTORS.len()
+                tried
             ),
         });
     }
