@@ -1890,7 +1890,11 @@ fn time_scan<M: Model>(
                 let end_span = TIME_SCAN_FACTORS[end] * t_p;
                 for f in TIME_SCAN_EXTENSION {
                     let Some(previous) = last else { break };
-                    let span = if side == 0 { end_span / f } else { end_span * f };
+                    let span = if side == 0 {
+                        end_span / f
+                    } else {
+                        end_span * f
+                    };
                     if let Err(e) = h.horizon_stage(span, options) {
                         edge[side] = horizon_edge::<M>(&e);
                         break;
