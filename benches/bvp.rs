@@ -7,13 +7,17 @@
 //!    f evaluations, max error against the exact solution.
 //! 2. Scaling: one Newton solve of a linear problem on fixed uniform meshes of
 //!    N = 1e2, 1e3, 1e4 intervals (n = 2 and n = 12): time per interval should be flat.
+//! 3. One Newton step (residual, Jacobians, condensation, factorisation, correction;
+//!    `bvp::NewtonStep`) on the final meshes of the paper's two cases (n = 12, k = 1), and on
+//!    uniform meshes of N = 1e2 .. 1e4 intervals for the n = 12 oscillators: time per step and
+//!    per interval.
 
 #[path = "../tests/common/mod.rs"]
 mod common;
 
 use common::*;
 use std::time::{Duration, Instant};
-use suslov::bvp::{solve, BvpProblem, Guess, Options, Solution};
+use suslov::bvp::{solve, BvpProblem, Guess, NewtonStep, Options, Solution};
 
 /// Median wall time of `f` over repetitions (at least 5, at most 101, about `budget` total).
 fn median_time(budget: Duration, mut f: impl FnMut() -> Solution) -> (Duration, Solution) {
@@ -179,6 +183,55 @@ fn bench_warm_start() {
     );
 }
 
+/// Median seconds of `step.run()` (at least 9 repetitions, about `budget` in total).
+fn median_step<P: BvpProblem + ?Sized>(step: &mut NewtonStep<'_, P>, budget: Duration) -> f64 {
+    let mut times = vec![];
+    let start = Instant::now();
+    while times.len() < 9 || (start.elapsed() < budget && times.len() < 1001) {
+        let t = Instant::now();
+        step.run().expect("a nonsingular Newton matrix");
+        times.push(t.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    times[times.len() / 2]
+}
+
+/// One Newton step on the final mesh of each paper case, and on uniform meshes (oscillators).
+fn bench_newton_step() {
+    let opts = Options {
+        tol: 1e-8,
+        ..Options::default()
+    };
+    for eta in [1.0, 0.01] {
+        let problem = suslov::paper::problem(eta);
+        let sol = suslov::solve(&problem, &suslov::SolveOptions::default(), &mut |_| {})
+            .expect("the paper case solves");
+        let generic = &sol.generic;
+        let bvp = suslov::lie::LieBvp::new(&generic.problem);
+        let guess = Guess::from_solution(&generic.bvp);
+        let mut step = NewtonStep::new(&bvp, &guess, &opts).expect("valid input");
+        let t = median_step(&mut step, Duration::from_millis(1500));
+        println!(
+            "| paper eta = {eta:<5} | {:>6} | {:>10.3} | {:>8.3} |",
+            step.intervals(),
+            t * 1e3,
+            t * 1e6 / step.intervals() as f64
+        );
+    }
+    for intervals in [100, 1_000, 10_000] {
+        let x = uniform(0.0, 1.0, intervals);
+        let guess = Guess::from_values(x.clone(), vec![0.0; x.len() * 12], vec![]);
+        let mut step = NewtonStep::new(&Oscillators, &guess, &opts).expect("valid input");
+        let t = median_step(&mut step, Duration::from_millis(1500));
+        println!(
+            "| oscillators n=12   | {:>6} | {:>10.3} | {:>8.3} |",
+            step.intervals(),
+            t * 1e3,
+            t * 1e6 / step.intervals() as f64
+        );
+    }
+}
+
 fn main() {
     // Optional filter: `cargo bench --bench bvp -- scaling` (or `problems`, `warm`).
     let filter: Vec<String> = std::env::args()
@@ -228,5 +281,11 @@ fn main() {
         println!("|----------------|--------|---------|------------|----------|--------|-------|--------|");
         bench_scaling("linear", &Linear);
         bench_scaling("oscillators", &Oscillators);
+    }
+    if run("step") {
+        println!("\n## One Newton step on a fixed mesh (median)\n");
+        println!("| case               | N      | ms/step    | us/N     |");
+        println!("|--------------------|--------|------------|----------|");
+        bench_newton_step();
     }
 }

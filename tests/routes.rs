@@ -237,9 +237,10 @@ fn a_polish_the_direct_solve_misses_is_reached_in_tolerance_steps() {
     let polish = sol.stages.last().expect("stages");
     assert_eq!(polish.name, "polish");
     assert!(polish.outcome.is_completed());
-    // The direct solve, then 1e-6 and 1e-8 from the continuation's 1e-4.
-    assert_eq!(polish.steps, 3, "{polish:?}");
-    assert_eq!(polish.failures_recovered, 1);
+    // The direct solve fails, then steps down from the continuation's 1e-4 reach 1e-8 (how
+    // many steps depends on rounding at this edge: 3 with the LU of session 9, 5 with QR).
+    assert!(polish.steps >= 2, "{polish:?}");
+    assert!(polish.failures_recovered >= 1, "{polish:?}");
     assert!(lie::verify_solution(&sol).verification.passed());
 }
 
@@ -419,18 +420,20 @@ fn a_start_too_stiff_at_a_small_beta_m_solves_at_the_target_beta() {
     assert!(v.verification.passed(), "{:?}", v.verification.verdict());
 }
 
-/// Corpus problem fast-139: the polish fails (1e-7 to 1e-8) on a solution whose ξ nearly
-/// vanishes (measured min |ξ| 0.011, α = 0.16 against β = 2.98), and the stop says so: the
-/// collapse, √(α/β) and the turning rate.
+/// Corpus problem fast-139 (α = 0.16 against β = 2.98): its solution's ξ nearly vanishes
+/// (min |ξ| 0.011). With the sparse LU of session 9 the polish from 1e-7 to 1e-8 failed on it;
+/// with the structured QR of the Newton matrix (#13) the polish converges: solved and
+/// verified this close to the collapse.
 #[test]
-fn a_polish_that_fails_where_xi_nearly_vanishes_says_so() {
-    let (stage, reason, partial) = stopped("fast_139_polish_collapse.toml");
-    assert_eq!(stage, "polish");
-    assert!(
-        reason.contains("xi nearly vanishes on the solution"),
-        "{reason}"
-    );
-    assert!(reason.contains("raise alpha"), "{reason}");
-    let min_xi = min_xi(&partial.bvp);
+fn a_solution_whose_xi_nearly_vanishes_is_polished_and_verified() {
+    let loaded = hard("fast_139_polish_collapse.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let polish = sol.stages.last().expect("stages");
+    assert_eq!(polish.name, "polish");
+    assert!(polish.outcome.is_completed());
+    let min_xi = min_xi(&sol.bvp);
     assert!(min_xi < 0.05, "{min_xi}");
+    let v = lie::verify_solution(&sol);
+    assert!(v.verification.passed(), "{:?}", v.verification.verdict());
 }

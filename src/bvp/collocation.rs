@@ -19,7 +19,7 @@
 //! The first `m*n + k` rows/unknowns form the *global* system; the stage rows/unknowns are
 //! eliminated interval by interval (see `Collocation::evaluate_jacobian`).
 
-use super::dense::{lu_factor, lu_solve, sub_mat_mul};
+use super::dense::{avx2, dot, lu_factor, lu_right_solve, lu_solve, sub_mat_mul_strided};
 use super::problem::{BvpProblem, Evaluator};
 
 /// Butcher tableau of the 4-stage Lobatto IIIA method and the polynomial basis of its
@@ -164,17 +164,19 @@ pub(crate) struct Collocation {
     /// LU factors of the stage blocks `K_i` (`2n x 2n`) and their pivots.
     klu: Vec<f64>,
     kpiv: Vec<usize>,
-    /// `W_i = K_i^{-1} [M_a M_b M_p]` (`2n x (2n+k)`).
-    w: Vec<f64>,
-    /// `C_i = -h_i [b_2 J_2, b_3 J_3]` (`n x 2n`).
-    cmat: Vec<f64>,
+    /// `M_p` of every interval (`2n x k`): the parameter columns of the stage equations.
+    mp: Vec<f64>,
+    /// `X_i = C_i K_i^{-1}` (`n x 2n`), `C_i = -h_i [b_2 J_2, b_3 J_3]`.
+    xmat: Vec<f64>,
     /// Condensed blocks `[A_i B_i P_i]` (`n x (2n+k)`).
     pub abp: Vec<f64>,
     /// Boundary Jacobians `[dg/dya dg/dyb dg/dp]` (`(n+k) x (2n+k)`).
     pub bc_blocks: Vec<f64>,
-    /// `z_i = K_i^{-1} Phi_st,i` from the last [`reduce_residual`](Self::reduce_residual).
+    /// The stage residuals `Phi_st,i` of the last [`reduce_residual`](Self::reduce_residual).
     z: Vec<f64>,
     work: Vec<f64>,
+    /// Scratch of the condensation (`2 n^2`).
+    cond_work: Vec<f64>,
     bc_work: Vec<f64>,
 }
 
@@ -199,12 +201,13 @@ impl Collocation {
             jp_stages: vec![0.0; nn * 2 * n * k],
             klu: vec![0.0; nn * s * s],
             kpiv: vec![0; nn * s],
-            w: vec![0.0; nn * s * wc],
-            cmat: vec![0.0; nn * n * s],
+            mp: vec![0.0; nn * s * k],
+            xmat: vec![0.0; nn * n * s],
             abp: vec![0.0; nn * n * wc],
             bc_blocks: vec![0.0; (n + k) * wc],
             z: vec![0.0; nn * s],
             work: vec![0.0; 2 * n + k],
+            cond_work: vec![0.0; 2 * n * n],
             bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
         }
     }
@@ -286,14 +289,25 @@ impl Collocation {
     /// M_p = [-h sum_j a2j P_j; -h sum_j a3j P_j]
     /// ```
     ///
-    /// (`J_j = df/dy`, `P_j = df/dp` at stage `j`), so `dY = -(z + W [dy_i; dy_{i+1}; dp])`
-    /// with `z = K^{-1} Phi_st`, `W = K^{-1} [M_a M_b M_p]`. Substituting into the linearised
-    /// continuity equation gives the condensed blocks
+    /// (`J_j = df/dy`, `P_j = df/dp` at stage `j`), so `dY = -K^{-1} (Phi_st + M delta)` with
+    /// `delta = [dy_i; dy_{i+1}; dp]`. Substituting into the linearised continuity equation
+    /// gives the condensed blocks
     ///
     /// ```text
-    /// [A_i B_i P_i] = [-I - h b1 J1,  I - h b4 J4,  -h sum_j b_j P_j] - C W,
-    /// C = [-h b2 J2, -h b3 J3],   right-hand side  -(Phi_4 - C z).
+    /// [A_i B_i P_i] = [-I - h b1 J1,  I - h b4 J4,  -h sum_j b_j P_j] - X M,
+    /// X = C K^{-1},  C = [-h b2 J2, -h b3 J3],   right-hand side  -(Phi_4 - X Phi_st).
     /// ```
+    ///
+    /// `X` is `n x 2n`, so forming it by a right solve with the factors of `K` costs `n`
+    /// right-hand sides rather than the `2n + k` of `K^{-1} M`; and the `y` columns of `M` are
+    /// `-[I; I] - h [a21; a31] J1` and `-h [a24; a34] J4`, so `X M` needs two `n x n`
+    /// products with `J1` and `J4` (`X = [X_2 X_3]`):
+    ///
+    /// ```text
+    /// X M_a = -(X_2 + X_3) - h (a21 X_2 + a31 X_3) J1,   X M_b = -h (a24 X_2 + a34 X_3) J4.
+    /// ```
+    ///
+    /// Only `M_p` is stored; the expansion rebuilds `M delta` from `J1`, `J4` and `M_p`.
     ///
     /// Returns `Err(i)` if `K_i` is singular or a Jacobian is not finite (interval `i`;
     /// `i = N` for the boundary Jacobian).
@@ -334,9 +348,7 @@ impl Collocation {
                 );
             }
         }
-        for i in 0..nn {
-            self.condense_interval(i)?;
-        }
+        self.condense_all()?;
         self.evaluate_bc_jacobian(
             ev,
             u,
@@ -345,8 +357,19 @@ impl Collocation {
         .map_err(|_| nn)
     }
 
-    /// Build `K_i`, `W_i`, `C_i` and `[A_i B_i P_i]` of interval `i` (formulas in
-    /// [`evaluate_jacobian`](Self::evaluate_jacobian)).
+    /// Condense every interval (in the AVX2 copy where the CPU has it).
+    fn condense_all(&mut self) -> Result<(), usize> {
+        avx2!(fn(this: &mut Collocation) -> Result<(), usize> {
+            for i in 0..this.lay.intervals() {
+                this.condense_interval(i)?;
+            }
+            Ok(())
+        }, self)
+    }
+
+    /// Build and factor `K_i`, then `X_i`, `M_p` and `[A_i B_i P_i]` of interval `i`
+    /// (formulas in [`evaluate_jacobian`](Self::evaluate_jacobian)).
+    #[inline(always)]
     fn condense_interval(&mut self, i: usize) -> Result<(), usize> {
         let Layout { n, k, .. } = self.lay;
         let s = 2 * n;
@@ -369,8 +392,8 @@ impl Collocation {
             }
         };
         let klu = &mut self.klu[i * s * s..(i + 1) * s * s];
-        let w = &mut self.w[i * s * wc..(i + 1) * s * wc];
-        let cm = &mut self.cmat[i * n * s..(i + 1) * n * s];
+        let mp = &mut self.mp[i * s * k..(i + 1) * s * k];
+        let xm = &mut self.xmat[i * n * s..(i + 1) * n * s];
         let abp = &mut self.abp[i * n * wc..(i + 1) * n * wc];
         for sr in 0..2 {
             let arow = &tab.a[sr + 1];
@@ -378,35 +401,32 @@ impl Collocation {
                 let row = sr * n + r;
                 // K: columns of stages 2 and 3.
                 for sc in 0..2 {
-                    let jac = jy(sc + 1);
-                    for c in 0..n {
-                        let delta = if sr == sc && r == c { 1.0 } else { 0.0 };
-                        klu[row * s + sc * n + c] = delta - h * arow[sc + 1] * jac[r * n + c];
+                    let jac = &jy(sc + 1)[r * n..(r + 1) * n];
+                    let coef = -h * arow[sc + 1];
+                    let out = &mut klu[row * s + sc * n..row * s + sc * n + n];
+                    for (o, jv) in out.iter_mut().zip(jac) {
+                        *o = coef * jv;
                     }
-                }
-                // M = [M_a M_b M_p].
-                let j0 = jy(0);
-                let j3 = jy(3);
-                for c in 0..n {
-                    let delta = if r == c { 1.0 } else { 0.0 };
-                    w[row * wc + c] = -delta - h * arow[0] * j0[r * n + c];
-                    w[row * wc + n + c] = -h * arow[3] * j3[r * n + c];
+                    if sr == sc {
+                        out[r] += 1.0;
+                    }
                 }
                 for c in 0..k {
                     let mut acc = 0.0;
                     for (j, &aj) in arow.iter().enumerate() {
                         acc += aj * jp(j)[r * k + c];
                     }
-                    w[row * wc + 2 * n + c] = -h * acc;
+                    mp[row * k + c] = -h * acc;
                 }
             }
         }
-        // C and the uncondensed part of [A B P].
+        // C (into X, overwritten by the right solve) and the uncondensed part of [A B P].
         for r in 0..n {
             for sc in 0..2 {
-                let jac = jy(sc + 1);
-                for c in 0..n {
-                    cm[r * s + sc * n + c] = -h * tab.b[sc + 1] * jac[r * n + c];
+                let jac = &jy(sc + 1)[r * n..(r + 1) * n];
+                let coef = -h * tab.b[sc + 1];
+                for (o, jv) in xm[r * s + sc * n..r * s + sc * n + n].iter_mut().zip(jac) {
+                    *o = coef * jv;
                 }
             }
             let (j0, j3) = (jy(0), jy(3));
@@ -427,8 +447,24 @@ impl Collocation {
         if !lu_factor(klu, s, piv) {
             return Err(i);
         }
-        lu_solve(klu, s, piv, w, wc);
-        sub_mat_mul(abp, cm, w, n, s, wc);
+        lu_right_solve(klu, s, piv, xm, n);
+        // X M_a = -(X_2 + X_3) - h (a21 X_2 + a31 X_3) J1,  X M_b = -h (a24 X_2 + a34 X_3) J4.
+        let (ya, yb) = self.cond_work.split_at_mut(n2);
+        let (a2, a3) = (&tab.a[1], &tab.a[2]);
+        for r in 0..n {
+            let x2 = &xm[r * s..r * s + n];
+            let x3 = &xm[r * s + n..(r + 1) * s];
+            for c in 0..n {
+                ya[r * n + c] = -h * (a2[0] * x2[c] + a3[0] * x3[c]);
+                yb[r * n + c] = -h * (a2[3] * x2[c] + a3[3] * x3[c]);
+                abp[r * wc + c] += x2[c] + x3[c];
+            }
+        }
+        sub_mat_mul_strided(&mut abp[..], wc, 0, ya, jy(0), n, n, n);
+        sub_mat_mul_strided(&mut abp[..], wc, n, yb, jy(3), n, n, n);
+        if k > 0 {
+            sub_mat_mul_strided(&mut abp[..], wc, 2 * n, xm, mp, n, s, k);
+        }
         if abp.iter().all(|v| v.is_finite()) {
             Ok(())
         } else {
@@ -473,29 +509,19 @@ impl Collocation {
     }
 
     /// Eliminate the stage residuals from `res` (full residual) and write the global
-    /// right-hand side `rhs = -[Phi_4 - C z; g]` (length `m*n + k`); keeps `z` for
+    /// right-hand side `rhs = -[Phi_4 - X Phi_st; g]` (length `m*n + k`); keeps `Phi_st` for
     /// [`expand_correction`](Self::expand_correction).
     pub fn reduce_residual(&mut self, res: &[f64], rhs: &mut [f64]) {
         let Layout { n, .. } = self.lay;
         let s = 2 * n;
         let so = self.lay.stage_offset();
-        for i in 0..self.lay.intervals() {
-            let z = &mut self.z[i * s..(i + 1) * s];
-            z.copy_from_slice(&res[so + i * s..so + (i + 1) * s]);
-            lu_solve(
-                &self.klu[i * s * s..(i + 1) * s * s],
-                s,
-                &self.kpiv[i * s..(i + 1) * s],
-                z,
-                1,
-            );
-            let cm = &self.cmat[i * n * s..(i + 1) * n * s];
+        let nn = self.lay.intervals();
+        self.z.copy_from_slice(&res[so..so + nn * s]);
+        for i in 0..nn {
+            let z = &self.z[i * s..(i + 1) * s];
+            let xm = &self.xmat[i * n * s..(i + 1) * n * s];
             for r in 0..n {
-                let mut acc = res[i * n + r];
-                for (cv, zv) in cm[r * s..(r + 1) * s].iter().zip(z.iter()) {
-                    acc -= cv * zv;
-                }
-                rhs[i * n + r] = -acc;
+                rhs[i * n + r] = dot(&xm[r * s..(r + 1) * s], z) - res[i * n + r];
             }
         }
         let bo = self.lay.bc_offset();
@@ -506,28 +532,56 @@ impl Collocation {
     }
 
     /// Given the global part `delta[..m*n+k]` of a correction, fill its stage part:
-    /// `dY_i = -(z_i + W_i [dy_i; dy_{i+1}; dp])`.
-    pub fn expand_correction(&self, delta: &mut [f64]) {
+    /// `dY_i = -K_i^{-1} (Phi_st,i + M_i [dy_i; dy_{i+1}; dp])`, with
+    /// `M [dy_i; dy_{i+1}; dp] = -[dy_i; dy_i] - h [a21; a31] J1 dy_i - h [a24; a34] J4 dy_{i+1}
+    /// + M_p dp`.
+    pub fn expand_correction(&mut self, delta: &mut [f64]) {
+        avx2!(fn(this: &mut Collocation, delta: &mut [f64]) -> () {
+            this.expand_impl(delta)
+        }, self, delta)
+    }
+
+    #[inline(always)]
+    fn expand_impl(&mut self, delta: &mut [f64]) {
         let Layout { n, k, .. } = self.lay;
         let s = 2 * n;
-        let wc = 2 * n + k;
+        let n2 = n * n;
         let po = self.lay.p_offset();
         let so = self.lay.stage_offset();
+        let tab = &self.tab;
         let (glob, stages) = delta.split_at_mut(so);
+        let dp = &glob[po..po + k];
+        let (j1y, j4y) = self.work.split_at_mut(n);
         for i in 0..self.lay.intervals() {
-            let w = &self.w[i * s * wc..(i + 1) * s * wc];
-            let yy = &glob[i * n..(i + 2) * n];
-            let dp = &glob[po..po + k];
-            for r in 0..s {
-                let wr = &w[r * wc..(r + 1) * wc];
-                let mut acc = self.z[i * s + r];
-                for (wv, yv) in wr[..2 * n].iter().zip(yy) {
-                    acc += wv * yv;
+            let h = self.h[i];
+            let dyi = &glob[i * n..(i + 1) * n];
+            let dyj = &glob[(i + 1) * n..(i + 2) * n];
+            let j1 = &self.jy_nodes[i * n2..(i + 1) * n2];
+            let j4 = &self.jy_nodes[(i + 1) * n2..(i + 2) * n2];
+            for r in 0..n {
+                j1y[r] = dot(&j1[r * n..(r + 1) * n], dyi);
+                j4y[r] = dot(&j4[r * n..(r + 1) * n], dyj);
+            }
+            let mp = &self.mp[i * s * k..(i + 1) * s * k];
+            let v = &mut stages[i * s..(i + 1) * s];
+            for sr in 0..2 {
+                let arow = &tab.a[sr + 1];
+                for r in 0..n {
+                    let row = sr * n + r;
+                    v[row] =
+                        self.z[i * s + row] - dyi[r] - h * (arow[0] * j1y[r] + arow[3] * j4y[r])
+                            + dot(&mp[row * k..(row + 1) * k], dp);
                 }
-                for (wv, pv) in wr[2 * n..].iter().zip(dp) {
-                    acc += wv * pv;
-                }
-                stages[i * s + r] = -acc;
+            }
+            lu_solve(
+                &self.klu[i * s * s..(i + 1) * s * s],
+                s,
+                &self.kpiv[i * s..(i + 1) * s],
+                v,
+                1,
+            );
+            for x in v.iter_mut() {
+                *x = -*x;
             }
         }
     }

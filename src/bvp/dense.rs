@@ -2,12 +2,59 @@
 //!
 //! Written by hand on slices so that condensation allocates nothing per interval and per
 //! iteration (faer's own guidance: it targets medium/large matrices).
+//!
+//! The kernels are `#[inline(always)]` so that the callers' AVX2 copies ([`avx2!`](crate::bvp::dense::avx2))
+//! compile them with 256-bit vectors. Vectorisation never reassociates or fuses floating-point
+//! operations (no FMA contraction), so both copies give bitwise identical results; the sums
+//! in [`dot`] are split into four fixed partial sums to give the vectors something to do.
+
+/// Whether to run the AVX2 copies of the hot loops (see the module docs); a cached atomic
+/// load after the first call.
+#[inline(always)]
+pub(crate) fn has_avx2() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        std::arch::is_x86_feature_detected!("avx2")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// `$body`, compiled a second time for AVX2 and run in that copy on CPUs that have it: the
+/// callee `$imp` must be `#[inline(always)]` (and so must the kernels it calls) for the copy
+/// to be compiled with the wider vectors. Usage inside a method:
+/// `avx2!(fn(this: &mut Self, a: &[f64]) -> R { this.imp(a) }, self, a)`.
+macro_rules! avx2 {
+    (fn($($p:ident : $t:ty),*) -> $r:ty $body:block, $($a:expr),*) => {{
+        #[cfg(target_arch = "x86_64")]
+        #[target_feature(enable = "avx2")]
+        fn wide($($p: $t),*) -> $r $body
+        fn narrow($($p: $t),*) -> $r $body
+        #[cfg(target_arch = "x86_64")]
+        {
+            if $crate::bvp::dense::has_avx2() {
+                // SAFETY: the CPU supports AVX2, checked just above.
+                unsafe { wide($($a),*) }
+            } else {
+                narrow($($a),*)
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            narrow($($a),*)
+        }
+    }};
+}
+pub(crate) use avx2;
 
 /// In-place LU factorisation with partial pivoting of the row-major `n x n` matrix `a`.
 ///
 /// On return `a` holds `L` (unit lower, below the diagonal) and `U`; `piv[i]` is the row
 /// swapped with row `i` at step `i`. Returns `false` if a pivot is zero or not finite (the
 /// matrix is singular to working precision or contains NaN).
+#[inline(always)]
 pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
     let scale = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     if !scale.is_finite() {
@@ -49,7 +96,12 @@ pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
 
 /// Solve `A X = B` in place with the factors from [`lu_factor`]; `b` is row-major
 /// `n x ncols`.
+#[inline(always)]
 pub(crate) fn lu_solve(a: &[f64], n: usize, piv: &[usize], b: &mut [f64], ncols: usize) {
+    if ncols == 1 {
+        lu_solve_vec(a, n, piv, b);
+        return;
+    }
     for (i, &p) in piv.iter().enumerate().take(n) {
         if p != i {
             for c in 0..ncols {
@@ -83,17 +135,103 @@ pub(crate) fn lu_solve(a: &[f64], n: usize, piv: &[usize], b: &mut [f64], ncols:
     }
 }
 
-/// `c -= a * b` with `a` row-major `r x q`, `b` row-major `q x s`, `c` row-major `r x s`.
-pub(crate) fn sub_mat_mul(c: &mut [f64], a: &[f64], b: &[f64], r: usize, q: usize, s: usize) {
+/// [`lu_solve`] for one right-hand side: the substitutions as dot products of the rows of
+/// `L` and `U` (contiguous in row-major storage).
+#[inline(always)]
+fn lu_solve_vec(a: &[f64], n: usize, piv: &[usize], b: &mut [f64]) {
+    for (i, &p) in piv.iter().enumerate().take(n) {
+        b.swap(i, p);
+    }
+    for i in 1..n {
+        let (done, rest) = b.split_at_mut(i);
+        rest[0] -= dot(&a[i * n..i * n + i], done);
+    }
+    for i in (0..n).rev() {
+        let (head, done) = b.split_at_mut(i + 1);
+        let row = &a[i * n..(i + 1) * n];
+        head[i] = (head[i] - dot(&row[i + 1..], done)) / row[i];
+    }
+}
+
+/// `sum_i a_i b_i` over the shorter of the two, with four independent partial sums (so the
+/// loop vectorizes and does not wait on one chain of additions).
+#[inline(always)]
+pub(crate) fn dot(a: &[f64], b: &[f64]) -> f64 {
+    let len = a.len().min(b.len());
+    let (a, b) = (&a[..len], &b[..len]);
+    let mut acc = [0.0_f64; 4];
+    let mut ca = a.chunks_exact(4);
+    let mut cb = b.chunks_exact(4);
+    for (x, y) in (&mut ca).zip(&mut cb) {
+        for q in 0..4 {
+            acc[q] += x[q] * y[q];
+        }
+    }
+    let mut tail = 0.0;
+    for (x, y) in ca.remainder().iter().zip(cb.remainder()) {
+        tail += x * y;
+    }
+    (acc[0] + acc[2]) + (acc[1] + acc[3]) + tail
+}
+
+/// `y += alpha x` over the shorter of the two.
+#[inline(always)]
+pub(crate) fn axpy(y: &mut [f64], alpha: f64, x: &[f64]) {
+    for (yv, xv) in y.iter_mut().zip(x) {
+        *yv += alpha * xv;
+    }
+}
+
+/// `X := X A^{-1}` in place with the factors from [`lu_factor`] (`P A = L U`); `x` is
+/// row-major `nrows x n`. Solves `Y U = X`, then `Z L = Y`, then `X A^{-1} = Z P`, row by row
+/// with contiguous rows of `U` and `L`.
+#[inline(always)]
+pub(crate) fn lu_right_solve(a: &[f64], n: usize, piv: &[usize], x: &mut [f64], nrows: usize) {
+    let x = &mut x[..nrows * n];
+    // Column by column over all rows: one division per pivot, contiguous row updates.
+    for i in 0..n {
+        let urow = &a[i * n..(i + 1) * n];
+        let inv = 1.0 / urow[i];
+        for row in x.chunks_exact_mut(n) {
+            row[i] *= inv;
+            let yi = row[i];
+            axpy(&mut row[i + 1..], -yi, &urow[i + 1..]);
+        }
+    }
+    for j in (1..n).rev() {
+        let lrow = &a[j * n..j * n + j];
+        for row in x.chunks_exact_mut(n) {
+            let zj = row[j];
+            axpy(&mut row[..j], -zj, lrow);
+        }
+    }
+    for row in x.chunks_exact_mut(n) {
+        for (i, &p) in piv.iter().enumerate().take(n).rev() {
+            row.swap(i, p);
+        }
+    }
+}
+
+/// `C[:, off..off+s] -= A B` with `A` row-major `r x q`, `B` row-major `q x s`, and `C`
+/// row-major with `ldc` columns.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+pub(crate) fn sub_mat_mul_strided(
+    c: &mut [f64],
+    ldc: usize,
+    off: usize,
+    a: &[f64],
+    b: &[f64],
+    r: usize,
+    q: usize,
+    s: usize,
+) {
     for i in 0..r {
+        let crow = &mut c[i * ldc + off..i * ldc + off + s];
         for l in 0..q {
             let ail = a[i * q + l];
             if ail != 0.0 {
-                let brow = &b[l * s..(l + 1) * s];
-                let crow = &mut c[i * s..(i + 1) * s];
-                for (cv, bv) in crow.iter_mut().zip(brow) {
-                    *cv -= ail * bv;
-                }
+                axpy(crow, -ail, &b[l * s..(l + 1) * s]);
             }
         }
     }

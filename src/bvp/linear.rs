@@ -15,20 +15,12 @@
 //!          +-----+-----+-----+-----+----+
 //! ```
 //!
-//! The pattern depends only on `(n, k, m)`: it is built and analysed (COLAMD ordering,
-//! symbolic LU) once per mesh size (and reused across solves on the same thread, which makes
-//! warm starts on an unchanged mesh cheaper); each Newton Jacobian is a numeric
-//! refactorisation only. The
-//! fill of an LU with partial pivoting of this matrix stays `O(N n^2 (n + k))`, so work and
-//! memory are linear in the number of intervals.
+//! The matrix is factored by structured QR ([`abd`](super::abd)): `O(N n^2 (n + k))` work,
+//! storage linear in the number of intervals, no symbolic analysis, no allocation in the
+//! Newton loop. The values live in [`global_jacobian_pattern`] order, which is the blocks'
+//! row-major order, so the condensation writes them where the factorisation reads them.
 
-use std::cell::RefCell;
-use std::rc::Rc;
-
-use faer::linalg::solvers::SolveCore;
-use faer::sparse::linalg::solvers::{Lu, SymbolicLu};
-use faer::sparse::{Argsort, Pair, SparseColMat, SymbolicSparseColMat};
-use faer::{Conj, MatMut};
+use super::abd::{AbdError, BorderedAbd};
 
 /// Row/column index pairs of the structurally nonzero entries of the global Jacobian, in
 /// assembly order: for each interval `i`, the rows `i*n .. i*n+n` of `[A_i B_i P_i]`
@@ -67,98 +59,76 @@ pub fn global_jacobian_pattern(n: usize, k: usize, m: usize) -> Vec<(usize, usiz
 /// Why the global factorisation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub(crate) enum FactorError {
-    /// The LU found no usable pivot (column index) or produced non-finite factors.
+    /// A row is zero or not finite, or the matrix is singular to working precision.
     Singular,
 }
 
-/// The global sparse system of one mesh with its cached symbolic analysis.
+/// The global system of one mesh: its values and their structured factorisation.
 pub(crate) struct GlobalSystem {
-    order: usize,
-    structure: Rc<Structure>,
-    /// Values in [`global_jacobian_pattern`] order.
+    n: usize,
+    k: usize,
+    m: usize,
+    /// Values in [`global_jacobian_pattern`] order (the blocks, row-major).
     pub values: Vec<f64>,
-    lu: Option<Lu<usize, f64>>,
-}
-
-/// Everything that depends only on `(n, k, m)`: the pattern, its CSC structure with the
-/// value order, and the symbolic LU (COLAMD ordering, elimination structure).
-struct Structure {
-    key: (usize, usize, usize),
-    pattern: Vec<(usize, usize)>,
-    symbolic: SymbolicSparseColMat<usize>,
-    argsort: Argsort<usize>,
-    symbolic_lu: SymbolicLu<usize>,
-}
-
-thread_local! {
-    /// The structure of the last mesh size seen on this thread. Warm starts and continuation
-    /// re-solve on the same mesh many times; the structure is a pure function of `(n, k, m)`,
-    /// so reusing it changes no result and skips the COLAMD ordering and symbolic analysis.
-    static LAST_STRUCTURE: RefCell<Option<Rc<Structure>>> = const { RefCell::new(None) };
-}
-
-impl Structure {
-    fn build(n: usize, k: usize, m: usize) -> Self {
-        let order = m * n + k;
-        let pattern = global_jacobian_pattern(n, k, m);
-        let pairs: Vec<Pair<usize, usize>> =
-            pattern.iter().map(|&(r, c)| Pair::new(r, c)).collect();
-        let (symbolic, argsort) = SymbolicSparseColMat::try_new_from_indices(order, order, &pairs)
-            .expect("the global pattern has in-bounds, well-formed indices by construction");
-        let symbolic_lu = SymbolicLu::try_new(symbolic.as_ref())
-            .expect("symbolic LU of the global pattern (allocation failure)");
-        Self {
-            key: (n, k, m),
-            pattern,
-            symbolic,
-            argsort,
-            symbolic_lu,
-        }
-    }
+    abd: BorderedAbd,
 }
 
 impl GlobalSystem {
-    /// The system for `n` states, `k` parameters, `m` nodes: pattern and symbolic LU are
-    /// built, or reused if the previous system on this thread had the same sizes.
+    /// The system for `n` states, `k` parameters, `m >= 2` nodes.
     pub fn new(n: usize, k: usize, m: usize) -> Self {
-        let structure = LAST_STRUCTURE.with(|cell| {
-            let mut last = cell.borrow_mut();
-            match last.as_ref() {
-                Some(s) if s.key == (n, k, m) => Rc::clone(s),
-                _ => {
-                    let s = Rc::new(Structure::build(n, k, m));
-                    *last = Some(Rc::clone(&s));
-                    s
-                }
-            }
-        });
+        let wc = 2 * n + k;
         Self {
-            order: m * n + k,
-            values: vec![0.0; structure.pattern.len()],
-            structure,
-            lu: None,
+            n,
+            k,
+            m,
+            values: vec![0.0; ((m - 1) * n + n + k) * wc],
+            abd: BorderedAbd::new(n, k, m - 1),
         }
     }
 
-    /// Numeric LU of the current `values` (symbolic analysis reused).
+    fn order(&self) -> usize {
+        self.m * self.n + self.k
+    }
+
+    /// Factor the current `values`.
     pub fn factor(&mut self) -> Result<(), FactorError> {
-        self.lu = None;
-        let st = &self.structure;
-        let mat = SparseColMat::new_from_argsort(st.symbolic.clone(), &st.argsort, &self.values)
-            .map_err(|_| FactorError::Singular)?;
-        let lu = Lu::try_new_with_symbolic(st.symbolic_lu.clone(), mat.as_ref())
-            .map_err(|_| FactorError::Singular)?;
-        self.lu = Some(lu);
-        Ok(())
+        self.abd
+            .factor(&self.values)
+            .map_err(|AbdError::Singular| FactorError::Singular)
+    }
+
+    /// Growth of the last factorisation (see [`BorderedAbd::growth`]).
+    pub fn growth(&self) -> f64 {
+        self.abd.growth()
     }
 
     /// Solve `J x = rhs` in place with the last factorisation. Returns `false` if there is
-    /// no factorisation or the solution is not finite (a zero pivot).
-    pub fn solve_in_place(&self, rhs: &mut [f64]) -> bool {
-        let Some(lu) = &self.lu else { return false };
-        let n = rhs.len();
-        lu.solve_in_place_with_conj(Conj::No, MatMut::from_column_major_slice_mut(rhs, n, 1));
-        rhs.iter().all(|v| v.is_finite())
+    /// no factorisation or the solution is not finite.
+    pub fn solve_in_place(&mut self, rhs: &mut [f64]) -> bool {
+        self.abd.solve_in_place(rhs)
+    }
+
+    /// `r -= J z` from the blocks.
+    fn sub_mul(&self, z: &[f64], r: &mut [f64]) {
+        let (n, k, m) = (self.n, self.k, self.m);
+        let wc = 2 * n + k;
+        let po = m * n;
+        for (row, vals) in self.values.chunks_exact(wc).enumerate() {
+            let (first, second) = if row < (m - 1) * n {
+                let i = row / n;
+                (i * n, (i + 1) * n)
+            } else {
+                (0, (m - 1) * n)
+            };
+            let acc: f64 = vals[..n]
+                .iter()
+                .zip(&z[first..first + n])
+                .chain(vals[n..2 * n].iter().zip(&z[second..second + n]))
+                .chain(vals[2 * n..].iter().zip(&z[po..po + k]))
+                .map(|(a, b)| a * b)
+                .sum();
+            r[row] -= acc;
+        }
     }
 
     /// Sensitivity of the discrete solution to the boundary data: `max_r ||J^{-1} e_r||_inf`
@@ -169,10 +139,11 @@ impl GlobalSystem {
     /// Every solve is checked by one step of iterative refinement: if the refinement changes
     /// the response by more than 1e-3 of its size, the matrix is singular to working
     /// precision and the result is infinite (as it is without a factorisation).
-    pub fn bc_sensitivity(&self, first_row: usize, rows: usize) -> f64 {
+    pub fn bc_sensitivity(&mut self, first_row: usize, rows: usize) -> f64 {
         let mut worst = 0.0_f64;
-        let mut z = vec![0.0; self.order];
-        let mut r = vec![0.0; self.order];
+        let order = self.order();
+        let mut z = vec![0.0; order];
+        let mut r = vec![0.0; order];
         for row in 0..rows {
             z.iter_mut().for_each(|v| *v = 0.0);
             z[first_row + row] = 1.0;
@@ -182,9 +153,7 @@ impl GlobalSystem {
             // r = e - J z, then the refinement J^{-1} r.
             r.iter_mut().for_each(|v| *v = 0.0);
             r[first_row + row] = 1.0;
-            for (&(i, j), v) in self.structure.pattern.iter().zip(&self.values) {
-                r[i] -= v * z[j];
-            }
+            self.sub_mul(&z, &mut r);
             if !self.solve_in_place(&mut r) {
                 return f64::INFINITY;
             }
@@ -200,40 +169,39 @@ impl GlobalSystem {
 
     /// Estimate of the 1-norm condition number `||DJ||_1 ||(DJ)^{-1}||_1` of the last factored
     /// matrix after row equilibration (`D` scales every row to unit max-norm, so a boundary
-    /// condition multiplied by 1e20 does not count as ill-conditioning). Hager's estimator as
-    /// refined by Higham (TOMS 14, 1988): at most 5 pairs of solves with `J` and `J^T`.
-    /// Infinite if there is no factorisation or a solve fails.
-    pub fn condition_estimate(&self) -> f64 {
-        let Some(lu) = &self.lu else {
-            return f64::INFINITY;
-        };
-        let order = self.order;
-        let pattern = &self.structure.pattern;
-        let mut row_max = vec![0.0_f64; order];
-        for (&(r, _), v) in pattern.iter().zip(&self.values) {
-            row_max[r] = row_max[r].max(v.abs());
-        }
-        if row_max.iter().any(|&v| v == 0.0 || !v.is_finite()) {
-            return f64::INFINITY;
-        }
+    /// condition multiplied by 1e20 does not count as ill-conditioning; the factorisation is
+    /// of `DJ` itself). Hager's estimator as refined by Higham (TOMS 14, 1988): at most 5
+    /// pairs of solves with `DJ` and `(DJ)^T`. Infinite if there is no factorisation or a
+    /// solve fails.
+    pub fn condition_estimate(&mut self) -> f64 {
+        let (n, k, m) = (self.n, self.k, self.m);
+        let order = self.order();
+        let wc = 2 * n + k;
+        let po = m * n;
         let mut col_sums = vec![0.0; order];
-        for (&(r, c), v) in pattern.iter().zip(&self.values) {
-            col_sums[c] += v.abs() / row_max[r];
+        let d = self.abd.row_scale();
+        for (row, vals) in self.values.chunks_exact(wc).enumerate() {
+            let (first, second) = if row < (m - 1) * n {
+                let i = row / n;
+                (i * n, (i + 1) * n)
+            } else {
+                (0, (m - 1) * n)
+            };
+            for c in 0..n {
+                col_sums[first + c] += vals[c].abs() * d[row];
+                col_sums[second + c] += vals[n + c].abs() * d[row];
+            }
+            for c in 0..k {
+                col_sums[po + c] += vals[2 * n + c].abs() * d[row];
+            }
         }
         let norm = col_sums.iter().fold(0.0_f64, |a, &v| a.max(v));
-        // (DJ)^{-1} x = J^{-1} (D^{-1} x),   (DJ)^{-T} z = D^{-1} (J^{-T} z).
         let mut x = vec![1.0 / order as f64; order];
         let mut y = vec![0.0; order];
         let mut est = 0.0;
         for iter in 0..5 {
-            for ((yv, xv), d) in y.iter_mut().zip(&x).zip(&row_max) {
-                *yv = xv * d;
-            }
-            lu.solve_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut y, order, 1),
-            );
-            if !y.iter().all(|v| v.is_finite()) {
+            y.copy_from_slice(&x);
+            if !self.abd.solve_scaled_in_place(&mut y) {
                 return f64::INFINITY;
             }
             let new_est: f64 = y.iter().map(|v| v.abs()).sum();
@@ -245,14 +213,7 @@ impl GlobalSystem {
                 .iter()
                 .map(|&v| if v >= 0.0 { 1.0 } else { -1.0 })
                 .collect();
-            lu.solve_transpose_in_place_with_conj(
-                Conj::No,
-                MatMut::from_column_major_slice_mut(&mut z, order, 1),
-            );
-            for (zv, d) in z.iter_mut().zip(&row_max) {
-                *zv *= d;
-            }
-            if !z.iter().all(|v| v.is_finite()) {
+            if !self.abd.solve_scaled_transpose_in_place(&mut z) {
                 return f64::INFINITY;
             }
             let (j, zmax) = z.iter().enumerate().fold((0, 0.0_f64), |(bj, bv), (i, v)| {
@@ -275,9 +236,11 @@ impl GlobalSystem {
     /// The assembled matrix as dense row-major (tests only).
     #[cfg(test)]
     pub fn to_dense(&self) -> Vec<f64> {
-        let mut d = vec![0.0; self.order * self.order];
-        for (&(r, c), v) in self.structure.pattern.iter().zip(&self.values) {
-            d[r * self.order + c] += v;
+        let order = self.order();
+        let mut d = vec![0.0; order * order];
+        let pattern = global_jacobian_pattern(self.n, self.k, self.m);
+        for (&(r, c), v) in pattern.iter().zip(&self.values) {
+            d[r * order + c] += v;
         }
         d
     }

@@ -113,8 +113,10 @@
 //!          +-----+-----+-----+-----+----+
 //! ```
 //!
-//! It is factored by faer's sparse LU with partial pivoting; the symbolic analysis is done
-//! once per mesh ([`linear`]). Work and memory are linear in the number of intervals.
+//! It is factored by structured QR, one interval at a time, after row equilibration
+//! ([`abd`]): work and memory are linear in the number of intervals, nothing is allocated in
+//! the Newton loop, and the orthogonal reduction cannot amplify rounding errors (its growth is
+//! reported in [`Stats::factor_growth`]).
 //! Newton is damped and affine invariant (Deuflhard's natural monotonicity test on the
 //! simplified correction) and reuses Jacobians while the contraction is fast ([`newton`]).
 //!
@@ -148,6 +150,7 @@
 //!   PSE*, ACM TOMS 27 (2001); *A BVP solver that controls residual and error*, JNAIAM 3 (2008).
 //! * P. Deuflhard, *Newton Methods for Nonlinear Problems*, Springer 2004.
 
+pub mod abd;
 pub mod collocation;
 mod dense;
 mod error;
@@ -285,13 +288,14 @@ fn assemble_initial_unknowns(guess: &Guess, n: usize, k: usize) -> Vec<f64> {
 /// return whether the problem counts as well posed at the requested tolerance (see
 /// [`Options::conditioning_limit`]).
 fn estimate_conditioning(
-    sys: &GlobalSystem,
+    sys: &mut GlobalSystem,
     col: &Collocation,
     options: &Options,
     stats: &mut Stats,
 ) -> bool {
     stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), col.lay.n + col.lay.k);
     stats.condition_estimate = sys.condition_estimate();
+    stats.factor_growth = sys.growth();
     stats.bc_condition * options.tol <= options.conditioning_limit
         && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR
 }
@@ -472,7 +476,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
         let newton_ok = outcome == NewtonOutcome::Converged;
         // Conditioning costs 2(n+k) + ~10 solves: only for candidates and final reports.
         let candidate = newton_ok && est.finite && est.max_error <= 1.0 && est.max_defect <= 1.0;
-        let well_posed = candidate && estimate_conditioning(&sys, &col, options, &mut stats);
+        let well_posed = candidate && estimate_conditioning(&mut sys, &col, options, &mut stats);
         let step = choose_next_step(
             &x,
             outcome,
@@ -501,7 +505,7 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
                     return Ok(with_total_work(sol, &stats, &ev));
                 }
                 if !candidate {
-                    estimate_conditioning(&sys, &col, options, &mut stats);
+                    estimate_conditioning(&mut sys, &col, options, &mut stats);
                 }
                 return Ok(build_solution(&ev, &mut col, &u, est, stats, status));
             }
@@ -535,4 +539,57 @@ fn with_total_work<P: BvpProblem + ?Sized>(
         ..sol.stats
     };
     sol
+}
+
+/// One full Newton step on a fixed mesh, exposed for the benchmarks (`benches/bvp.rs`): not
+/// part of the API. A step is what [`solve`] repeats: the residual, the Jacobians at all
+/// nodes and stages, the condensation of every interval, the structured factorisation, and
+/// the correction (reduction, global solve, expansion).
+#[doc(hidden)]
+pub struct NewtonStep<'a, P: BvpProblem + ?Sized> {
+    ev: Evaluator<'a, P>,
+    col: Collocation,
+    sys: GlobalSystem,
+    u: Vec<f64>,
+    res: Vec<f64>,
+    dx: Vec<f64>,
+}
+
+impl<'a, P: BvpProblem + ?Sized> NewtonStep<'a, P> {
+    /// The step at `guess` (its mesh and values), or the input error.
+    pub fn new(problem: &'a P, guess: &Guess, options: &Options) -> Result<Self, BvpError> {
+        validate_input(problem, guess, options)?;
+        let ev = Evaluator::new(problem, options.jacobian);
+        let (n, k) = (ev.n, ev.k);
+        let col = Collocation::new(n, k, &guess.x);
+        let len = col.lay.total();
+        Ok(Self {
+            sys: GlobalSystem::new(n, k, guess.x.len()),
+            u: assemble_initial_unknowns(guess, n, k),
+            res: vec![0.0; len],
+            dx: vec![0.0; len],
+            col,
+            ev,
+        })
+    }
+
+    /// Number of intervals.
+    pub fn intervals(&self) -> usize {
+        self.col.lay.intervals()
+    }
+
+    /// Do the step (the iterate is not updated, so every call does the same work); returns
+    /// the max-norm of the correction, or `None` if a factorisation failed.
+    pub fn run(&mut self) -> Option<f64> {
+        if !self.col.evaluate_residual(&self.ev, &self.u, &mut self.res) {
+            return None;
+        }
+        self.col
+            .evaluate_jacobian(&self.ev, &self.u, &self.res)
+            .ok()?;
+        self.col.assemble_global(&mut self.sys.values);
+        self.sys.factor().ok()?;
+        newton::compute_correction(&mut self.col, &mut self.sys, &self.res, &mut self.dx)
+            .then(|| self.dx.iter().fold(0.0_f64, |a, v| a.max(v.abs())))
+    }
 }

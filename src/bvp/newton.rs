@@ -81,7 +81,7 @@ pub(crate) fn scaled_norms(
 /// `out = -J^{-1} res` with the current factorisations (condense, global solve, expand).
 pub(crate) fn compute_correction(
     col: &mut Collocation,
-    sys: &GlobalSystem,
+    sys: &mut GlobalSystem,
     res: &[f64],
     out: &mut [f64],
 ) -> bool {

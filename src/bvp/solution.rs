@@ -110,6 +110,10 @@ pub struct Stats {
     /// Estimate of the 1-norm condition number of the condensed global Newton matrix on the
     /// last mesh (Hager-Higham). Above `1e-3 / eps` the matrix counts as numerically singular.
     pub condition_estimate: f64,
+    /// Growth of the structured QR factorisation of that matrix: the largest entry of `R`
+    /// relative to the 2-norm of its column of the row-equilibrated matrix. At most 1 up to
+    /// rounding for an orthogonal reduction; reported as evidence of a stable solve.
+    pub factor_growth: f64,
 }
 
 /// One report to the progress hook.

@@ -5,7 +5,7 @@
 use nalgebra::{DMatrix, DVector};
 
 use super::collocation::{Collocation, Layout, Tableau};
-use super::dense::{lu_factor, lu_solve};
+use super::dense::{lu_factor, lu_right_solve, lu_solve};
 use super::linear::{global_jacobian_pattern, GlobalSystem};
 use super::mesh::{adapt_mesh, halve_mesh, transfer_solution};
 use super::newton::compute_correction;
@@ -66,6 +66,26 @@ fn dense_lu_solves_and_detects_singularity() {
     lu_solve(&a, 3, &piv, &mut b, 2);
     for (u, v) in b.iter().zip(&x) {
         assert!((u - v).abs() < 1e-14);
+    }
+    // One right-hand side (the dot-product path).
+    let mut b1: Vec<f64> = (0..3)
+        .map(|r| (0..3).map(|q| a0[r * 3 + q] * x[q * 2]).sum())
+        .collect();
+    lu_solve(&a, 3, &piv, &mut b1, 1);
+    for (r, u) in b1.iter().enumerate() {
+        assert!((u - x[r * 2]).abs() < 1e-14);
+    }
+    // Right solve: rows z with z A = w, i.e. w A^{-1} = z (pivoting needed: a0[0] = 0).
+    let z = [1.0, -2.0, 0.5, 3.0, 0.0, 1.0]; // two rows, row-major 2 x 3
+    let mut w = [0.0; 6];
+    for r in 0..2 {
+        for c in 0..3 {
+            w[r * 3 + c] = (0..3).map(|q| z[r * 3 + q] * a0[q * 3 + c]).sum();
+        }
+    }
+    lu_right_solve(&a, 3, &piv, &mut w, 2);
+    for (u, v) in w.iter().zip(&z) {
+        assert!((u - v).abs() < 1e-14, "{w:?}");
     }
     let mut s = [1.0, 2.0, 2.0, 4.0];
     assert!(!lu_factor(&mut s, 2, &mut [0; 2]));
@@ -262,7 +282,7 @@ fn condensed_jacobian_and_correction_match_finite_differences() {
         // Newton correction vs dense FD solve.
         sys.factor().expect("nonsingular");
         let mut dx = vec![0.0; total];
-        assert!(compute_correction(&mut col, &sys, &res, &mut dx));
+        assert!(compute_correction(&mut col, &mut sys, &res, &mut dx));
         let expected = jfull
             .lu()
             .solve(&(-DVector::from_vec(res.clone())))
