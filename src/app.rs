@@ -27,7 +27,7 @@
 //! ([`crate::lie::verify`]) has status `unverified: <checks>` and goes to
 //! `trajectory.unverified.csv` (and `.npy`). Figures are drawn for verified solutions only.
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 pub mod lie;
@@ -235,11 +235,32 @@ fn write_case_outputs(
                 .collect(),
         );
     }
-    for fig in report::Figure::ALL {
-        let bytes = report::render_figure_bytes(fig, &table, &opts)?;
+    // The figures are independent: render them side by side, then write them in their
+    // usual order (the bytes do not depend on which thread drew them).
+    let rendered: Vec<Result<Vec<u8>, ReportError>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = report::Figure::ALL
+            .iter()
+            .map(|&fig| {
+                let (table, opts) = (&table, &opts);
+                (fig, scope.spawn(move || report::render_figure_bytes(fig, table, opts)))
+            })
+            .collect();
+        handles
+            .into_iter()
+            .map(|(fig, handle)| {
+                handle.join().unwrap_or_else(|_| {
+                    Err(ReportError::Plot {
+                        path: PathBuf::from(fig.stem()),
+                        message: "the renderer panicked".to_string(),
+                    })
+                })
+            })
+            .collect()
+    });
+    for (fig, bytes) in report::Figure::ALL.iter().zip(rendered) {
         let path = out.write(
             sub.join(format!("{}.{}", fig.stem(), opts.format.extension())),
-            &bytes,
+            &bytes?,
         )?;
         events(AppEvent::Wrote(&path));
     }

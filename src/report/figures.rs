@@ -1236,6 +1236,30 @@ mod tests {
         }
     }
 
+    /// Figures rendered side by side (as `suslov paper` and `solve` do) have the bytes of
+    /// figures rendered one after the other: the renderer shares no state between threads
+    /// that changes its output.
+    #[test]
+    fn figures_rendered_in_parallel_are_byte_identical() {
+        let tab = table(200, |t| (3.0 * t).sin());
+        let o = opts(FigureFormat::Png);
+        let serial: Vec<Vec<u8>> = Figure::ALL
+            .iter()
+            .map(|&fig| render_figure_bytes(fig, &tab, &o).unwrap())
+            .collect();
+        let parallel: Vec<Vec<u8>> = std::thread::scope(|scope| {
+            let handles: Vec<_> = Figure::ALL
+                .iter()
+                .map(|&fig| {
+                    let (tab, o) = (&tab, &o);
+                    scope.spawn(move || render_figure_bytes(fig, tab, o).unwrap())
+                })
+                .collect();
+            handles.into_iter().map(|h| h.join().unwrap()).collect()
+        });
+        assert_eq!(serial, parallel);
+    }
+
     #[test]
     fn tick_steps_and_labels() {
         assert_eq!(tick_step(0.0, 11.36, 10), 2.0);
