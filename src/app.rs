@@ -242,7 +242,10 @@ fn write_case_outputs(
             .iter()
             .map(|&fig| {
                 let (table, opts) = (&table, &opts);
-                (fig, scope.spawn(move || report::render_figure_bytes(fig, table, opts)))
+                (
+                    fig,
+                    scope.spawn(move || report::render_figure_bytes(fig, table, opts)),
+                )
             })
             .collect();
         handles

@@ -37,7 +37,9 @@
 //! `R` to the 2-norm of that column of `D J`. Column `j` of `R` is `Q^T` applied to column `j`
 //! of `D J`, so for an orthogonal reduction the ratio is at most 1 (up to rounding) whatever
 //! the matrix; above that means a bug, not an unlucky matrix. (Gaussian elimination's
-//! growth factor has no such bound.)
+//! growth factor has no such bound.) It also reports the smallest pivot relative to its
+//! column, `min_j |R_jj| / ||(D J)_j||_2`: the part of a column independent of the columns
+//! before it, small when the matrix is near singular.
 //!
 //! # References
 //! * S. J. Wright, *Stable parallel algorithms for two-point boundary value problems*, SIAM
@@ -79,6 +81,8 @@ pub(crate) struct BorderedAbd {
     last_taus: Vec<f64>,
     /// `max_ij |R_ij| / ||(D J)_j||_2` of the last factorisation.
     growth: f64,
+    /// `min_j |R_jj| / ||(D J)_j||_2` of the last factorisation.
+    min_pivot: f64,
     /// Squared column norms of `D J`, columns ordered `y_0 .. y_N, p`.
     col_norm2: Vec<f64>,
     factored: bool,
@@ -104,6 +108,7 @@ impl BorderedAbd {
             last: vec![0.0; q * q],
             last_taus: vec![0.0; q],
             growth: f64::NAN,
+            min_pivot: f64::NAN,
             col_norm2: vec![0.0; (intervals + 1) * n + k],
             factored: false,
             active: vec![0.0; q],
@@ -126,6 +131,14 @@ impl BorderedAbd {
     /// 1 up to rounding; NaN before a factorisation).
     pub fn growth(&self) -> f64 {
         self.growth
+    }
+
+    /// Smallest pivot of the last successful factorisation relative to its column:
+    /// `min_j |R_jj| / ||(D J)_j||_2` (in (0, 1]; `|R_jj|` is the part of column `j` not in
+    /// the span of the columns eliminated before it, so a small value means a column nearly
+    /// dependent on earlier ones: a matrix near singular. NaN before a factorisation).
+    pub fn min_pivot(&self) -> f64 {
+        self.min_pivot
     }
 
     /// Factor the matrix given by `values`: the `N` interval blocks `[A_i B_i P_i]`
@@ -173,6 +186,7 @@ impl BorderedAbd {
         let cols = 3 * n + k;
         let block = s * cols;
         let mut growth = 0.0_f64;
+        let mut min_pivot = f64::INFINITY;
         let col_norm2 = &self.col_norm2;
         // max_i |R_ij| / ||(D J)_j|| over the top `top` rows of a column-major column.
         let ratio = |col: &[f64], j: usize| {
@@ -239,6 +253,9 @@ impl BorderedAbd {
                     _ => (n, po + c - 3 * n),
                 };
                 growth = growth.max(ratio(&step[c * s..c * s + top], j));
+                if c < n {
+                    min_pivot = min_pivot.min(step[c * s + c].abs() / col_norm2[j].sqrt());
+                }
             }
         }
         // The last block: carried rows over the boundary rows, columns (y_0, y_N, p).
@@ -278,8 +295,10 @@ impl BorderedAbd {
                 _ => po + c - 2 * n,
             };
             growth = growth.max(ratio(&last[c * q..c * q + c + 1], j));
+            min_pivot = min_pivot.min(last[c * q + c].abs() / col_norm2[j].sqrt());
         }
         self.growth = growth;
+        self.min_pivot = min_pivot;
         self.factored = true;
         Ok(())
     }
@@ -611,6 +630,8 @@ mod tests {
                 .expect("random matrices are nonsingular");
             let growth = abd.growth();
             assert!(growth > 0.1 && growth <= 1.0 + 1e-12, "growth {growth}");
+            let pivot = abd.min_pivot();
+            assert!(pivot > 0.0 && pivot <= 1.0 + 1e-12, "min pivot {pivot}");
             let mut rnd = stream(7);
             let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
             let lu = dense.clone().lu();
@@ -680,5 +701,19 @@ mod tests {
             }
         }
         assert_eq!(abd.factor(&no_y1), Err(AbdError::Singular));
+        // Nearly: the first two columns of y_1 (in B_0 and A_1) parallel to 1e-9.
+        let mut weak_y1 = values.clone();
+        for r in 0..2 * n {
+            let (row, c0) = if r < n { (r, n) } else { (r, 0) };
+            weak_y1[row * wc + c0 + 1] = weak_y1[row * wc + c0] * (1.0 + 1e-9 * r as f64);
+        }
+        abd.factor(&values).unwrap();
+        let healthy = abd.min_pivot();
+        abd.factor(&weak_y1).unwrap();
+        assert!(
+            abd.min_pivot() < 1e-6 * healthy,
+            "{} vs {healthy}",
+            abd.min_pivot()
+        );
     }
 }

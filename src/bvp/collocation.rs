@@ -175,7 +175,7 @@ pub(crate) struct Collocation {
     /// The stage residuals `Phi_st,i` of the last [`reduce_residual`](Self::reduce_residual).
     z: Vec<f64>,
     work: Vec<f64>,
-    /// Scratch of the condensation (`2 n^2`).
+    /// Scratch of the condensation (`2 n^2` for each of two threads).
     cond_work: Vec<f64>,
     bc_work: Vec<f64>,
 }
@@ -207,7 +207,7 @@ impl Collocation {
             bc_blocks: vec![0.0; (n + k) * wc],
             z: vec![0.0; nn * s],
             work: vec![0.0; 2 * n + k],
-            cond_work: vec![0.0; 2 * n * n],
+            cond_work: vec![0.0; 4 * n * n],
             bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
         }
     }
@@ -357,121 +357,69 @@ impl Collocation {
         .map_err(|_| nn)
     }
 
-    /// Condense every interval (in the AVX2 copy where the CPU has it).
+    /// Condense every interval (in the AVX2 copy where the CPU has it); on meshes of at
+    /// least [`PARALLEL_INTERVALS`] intervals the second half on a second thread (each
+    /// interval is computed the same way whichever thread does it: the results are bitwise
+    /// the same).
     fn condense_all(&mut self) -> Result<(), usize> {
-        avx2!(fn(this: &mut Collocation) -> Result<(), usize> {
-            for i in 0..this.lay.intervals() {
-                this.condense_interval(i)?;
-            }
-            Ok(())
-        }, self)
-    }
-
-    /// Build and factor `K_i`, then `X_i`, `M_p` and `[A_i B_i P_i]` of interval `i`
-    /// (formulas in [`evaluate_jacobian`](Self::evaluate_jacobian)).
-    #[inline(always)]
-    fn condense_interval(&mut self, i: usize) -> Result<(), usize> {
         let Layout { n, k, .. } = self.lay;
-        let s = 2 * n;
-        let wc = 2 * n + k;
-        let (n2, nk) = (n * n, n * k);
-        let h = self.h[i];
-        let tab = &self.tab;
-        let jy = |j: usize| -> &[f64] {
-            match j {
-                0 => &self.jy_nodes[i * n2..(i + 1) * n2],
-                3 => &self.jy_nodes[(i + 1) * n2..(i + 2) * n2],
-                _ => &self.jy_stages[(2 * i + j - 1) * n2..(2 * i + j) * n2],
-            }
+        let nn = self.lay.intervals();
+        let (s, wc) = (2 * n, 2 * n + k);
+        let jac = StageJacobians {
+            lay: self.lay,
+            tab: &self.tab,
+            h: &self.h,
+            jy_nodes: &self.jy_nodes,
+            jy_stages: &self.jy_stages,
+            jp_nodes: &self.jp_nodes,
+            jp_stages: &self.jp_stages,
         };
-        let jp = |j: usize| -> &[f64] {
-            match j {
-                0 => &self.jp_nodes[i * nk..(i + 1) * nk],
-                3 => &self.jp_nodes[(i + 1) * nk..(i + 2) * nk],
-                _ => &self.jp_stages[(2 * i + j - 1) * nk..(2 * i + j) * nk],
-            }
+        let out = CondensedBlocks {
+            klu: &mut self.klu,
+            kpiv: &mut self.kpiv,
+            mp: &mut self.mp,
+            xmat: &mut self.xmat,
+            abp: &mut self.abp,
+            scratch: &mut self.cond_work,
         };
-        let klu = &mut self.klu[i * s * s..(i + 1) * s * s];
-        let mp = &mut self.mp[i * s * k..(i + 1) * s * k];
-        let xm = &mut self.xmat[i * n * s..(i + 1) * n * s];
-        let abp = &mut self.abp[i * n * wc..(i + 1) * n * wc];
-        for sr in 0..2 {
-            let arow = &tab.a[sr + 1];
-            for r in 0..n {
-                let row = sr * n + r;
-                // K: columns of stages 2 and 3.
-                for sc in 0..2 {
-                    let jac = &jy(sc + 1)[r * n..(r + 1) * n];
-                    let coef = -h * arow[sc + 1];
-                    let out = &mut klu[row * s + sc * n..row * s + sc * n + n];
-                    for (o, jv) in out.iter_mut().zip(jac) {
-                        *o = coef * jv;
-                    }
-                    if sr == sc {
-                        out[r] += 1.0;
-                    }
-                }
-                for c in 0..k {
-                    let mut acc = 0.0;
-                    for (j, &aj) in arow.iter().enumerate() {
-                        acc += aj * jp(j)[r * k + c];
-                    }
-                    mp[row * k + c] = -h * acc;
-                }
-            }
+        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
+        if nn < PARALLEL_INTERVALS || threads < 2 {
+            return condense_range(&jac, 0, out);
         }
-        // C (into X, overwritten by the right solve) and the uncondensed part of [A B P].
-        for r in 0..n {
-            for sc in 0..2 {
-                let jac = &jy(sc + 1)[r * n..(r + 1) * n];
-                let coef = -h * tab.b[sc + 1];
-                for (o, jv) in xm[r * s + sc * n..r * s + sc * n + n].iter_mut().zip(jac) {
-                    *o = coef * jv;
-                }
-            }
-            let (j0, j3) = (jy(0), jy(3));
-            for c in 0..n {
-                let delta = if r == c { 1.0 } else { 0.0 };
-                abp[r * wc + c] = -delta - h * tab.b[0] * j0[r * n + c];
-                abp[r * wc + n + c] = delta - h * tab.b[3] * j3[r * n + c];
-            }
-            for c in 0..k {
-                let mut acc = 0.0;
-                for (j, &bj) in tab.b.iter().enumerate() {
-                    acc += bj * jp(j)[r * k + c];
-                }
-                abp[r * wc + 2 * n + c] = -h * acc;
-            }
-        }
-        let piv = &mut self.kpiv[i * s..(i + 1) * s];
-        if !lu_factor(klu, s, piv) {
-            return Err(i);
-        }
-        lu_right_solve(klu, s, piv, xm, n);
-        // X M_a = -(X_2 + X_3) - h (a21 X_2 + a31 X_3) J1,  X M_b = -h (a24 X_2 + a34 X_3) J4.
-        let (ya, yb) = self.cond_work.split_at_mut(n2);
-        let (a2, a3) = (&tab.a[1], &tab.a[2]);
-        for r in 0..n {
-            let x2 = &xm[r * s..r * s + n];
-            let x3 = &xm[r * s + n..(r + 1) * s];
-            for c in 0..n {
-                ya[r * n + c] = -h * (a2[0] * x2[c] + a3[0] * x3[c]);
-                yb[r * n + c] = -h * (a2[3] * x2[c] + a3[3] * x3[c]);
-                abp[r * wc + c] += x2[c] + x3[c];
-            }
-        }
-        sub_mat_mul_strided(&mut abp[..], wc, 0, ya, jy(0), n, n, n);
-        sub_mat_mul_strided(&mut abp[..], wc, n, yb, jy(3), n, n, n);
-        if k > 0 {
-            sub_mat_mul_strided(&mut abp[..], wc, 2 * n, xm, mp, n, s, k);
-        }
-        if abp.iter().all(|v| v.is_finite()) {
-            Ok(())
-        } else {
-            Err(i)
-        }
+        let mid = nn / 2;
+        let (scratch, scratch2) = out.scratch.split_at_mut(2 * n * n);
+        let (klu, klu2) = out.klu.split_at_mut(mid * s * s);
+        let (kpiv, kpiv2) = out.kpiv.split_at_mut(mid * s);
+        let (mp, mp2) = out.mp.split_at_mut(mid * s * k);
+        let (xmat, xmat2) = out.xmat.split_at_mut(mid * n * s);
+        let (abp, abp2) = out.abp.split_at_mut(mid * n * wc);
+        let first = CondensedBlocks {
+            klu,
+            kpiv,
+            mp,
+            xmat,
+            abp,
+            scratch,
+        };
+        let second = CondensedBlocks {
+            klu: klu2,
+            kpiv: kpiv2,
+            mp: mp2,
+            xmat: xmat2,
+            abp: abp2,
+            scratch: scratch2,
+        };
+        let jac = &jac;
+        std::thread::scope(|scope| {
+            let other = scope.spawn(move || condense_range(jac, mid, second));
+            let mine = condense_range(jac, 0, first);
+            // A panic in the other half is a bug: propagate it.
+            let theirs = other
+                .join()
+                .unwrap_or_else(|e| std::panic::resume_unwind(e));
+            mine.and(theirs)
+        })
     }
-
     /// Boundary Jacobians into `bc_blocks` (row-major `(n+k) x (2n+k)`: `[dya dyb dp]`).
     fn evaluate_bc_jacobian<P: BvpProblem + ?Sized>(
         &mut self,
@@ -584,6 +532,157 @@ impl Collocation {
                 *x = -*x;
             }
         }
+    }
+}
+
+/// Meshes with at least this many intervals are condensed on two threads (below it the
+/// thread costs more than it saves).
+pub(crate) const PARALLEL_INTERVALS: usize = 64;
+
+/// What the condensation of an interval reads: the Jacobians at nodes and stages.
+struct StageJacobians<'a> {
+    lay: Layout,
+    tab: &'a Tableau,
+    h: &'a [f64],
+    jy_nodes: &'a [f64],
+    jy_stages: &'a [f64],
+    jp_nodes: &'a [f64],
+    jp_stages: &'a [f64],
+}
+
+/// What it writes, for a run of consecutive intervals (the slices start at the run's first
+/// interval), and a scratch of `2 n^2`.
+struct CondensedBlocks<'a> {
+    klu: &'a mut [f64],
+    kpiv: &'a mut [usize],
+    mp: &'a mut [f64],
+    xmat: &'a mut [f64],
+    abp: &'a mut [f64],
+    scratch: &'a mut [f64],
+}
+
+/// Condense the intervals `first ..` covered by `out` (in the AVX2 copy where the CPU has
+/// it); `Err(i)` names the first interval whose `K_i` is singular or whose blocks are not
+/// finite.
+fn condense_range(jac: &StageJacobians, first: usize, out: CondensedBlocks) -> Result<(), usize> {
+    avx2!(fn(jac: &StageJacobians, first: usize, out: CondensedBlocks) -> Result<(), usize> {
+        let Layout { n, .. } = jac.lay;
+        let count = out.kpiv.len() / (2 * n);
+        let mut out = out;
+        for i in first..first + count {
+            condense_interval(jac, i, i - first, &mut out)?;
+        }
+        Ok(())
+    }, jac, first, out)
+}
+
+/// Build and factor `K_i`, then `X_i`, `M_p` and `[A_i B_i P_i]` of interval `i` (stored at
+/// position `at` of `out`; formulas in [`Collocation::evaluate_jacobian`]).
+#[inline(always)]
+fn condense_interval(
+    jac: &StageJacobians,
+    i: usize,
+    at: usize,
+    out: &mut CondensedBlocks,
+) -> Result<(), usize> {
+    let Layout { n, k, .. } = jac.lay;
+    let s = 2 * n;
+    let wc = 2 * n + k;
+    let (n2, nk) = (n * n, n * k);
+    let h = jac.h[i];
+    let tab = jac.tab;
+    let jy = |j: usize| -> &[f64] {
+        match j {
+            0 => &jac.jy_nodes[i * n2..(i + 1) * n2],
+            3 => &jac.jy_nodes[(i + 1) * n2..(i + 2) * n2],
+            _ => &jac.jy_stages[(2 * i + j - 1) * n2..(2 * i + j) * n2],
+        }
+    };
+    let jp = |j: usize| -> &[f64] {
+        match j {
+            0 => &jac.jp_nodes[i * nk..(i + 1) * nk],
+            3 => &jac.jp_nodes[(i + 1) * nk..(i + 2) * nk],
+            _ => &jac.jp_stages[(2 * i + j - 1) * nk..(2 * i + j) * nk],
+        }
+    };
+    let klu = &mut out.klu[at * s * s..(at + 1) * s * s];
+    let mp = &mut out.mp[at * s * k..(at + 1) * s * k];
+    let xm = &mut out.xmat[at * n * s..(at + 1) * n * s];
+    let abp = &mut out.abp[at * n * wc..(at + 1) * n * wc];
+    for sr in 0..2 {
+        let arow = &tab.a[sr + 1];
+        for r in 0..n {
+            let row = sr * n + r;
+            // K: columns of stages 2 and 3.
+            for sc in 0..2 {
+                let jac = &jy(sc + 1)[r * n..(r + 1) * n];
+                let coef = -h * arow[sc + 1];
+                let out = &mut klu[row * s + sc * n..row * s + sc * n + n];
+                for (o, jv) in out.iter_mut().zip(jac) {
+                    *o = coef * jv;
+                }
+                if sr == sc {
+                    out[r] += 1.0;
+                }
+            }
+            for c in 0..k {
+                let mut acc = 0.0;
+                for (j, &aj) in arow.iter().enumerate() {
+                    acc += aj * jp(j)[r * k + c];
+                }
+                mp[row * k + c] = -h * acc;
+            }
+        }
+    }
+    // C (into X, overwritten by the right solve) and the uncondensed part of [A B P].
+    for r in 0..n {
+        for sc in 0..2 {
+            let jac = &jy(sc + 1)[r * n..(r + 1) * n];
+            let coef = -h * tab.b[sc + 1];
+            for (o, jv) in xm[r * s + sc * n..r * s + sc * n + n].iter_mut().zip(jac) {
+                *o = coef * jv;
+            }
+        }
+        let (j0, j3) = (jy(0), jy(3));
+        for c in 0..n {
+            let delta = if r == c { 1.0 } else { 0.0 };
+            abp[r * wc + c] = -delta - h * tab.b[0] * j0[r * n + c];
+            abp[r * wc + n + c] = delta - h * tab.b[3] * j3[r * n + c];
+        }
+        for c in 0..k {
+            let mut acc = 0.0;
+            for (j, &bj) in tab.b.iter().enumerate() {
+                acc += bj * jp(j)[r * k + c];
+            }
+            abp[r * wc + 2 * n + c] = -h * acc;
+        }
+    }
+    let piv = &mut out.kpiv[at * s..(at + 1) * s];
+    if !lu_factor(klu, s, piv) {
+        return Err(i);
+    }
+    lu_right_solve(klu, s, piv, xm, n);
+    // X M_a = -(X_2 + X_3) - h (a21 X_2 + a31 X_3) J1,  X M_b = -h (a24 X_2 + a34 X_3) J4.
+    let (ya, yb) = out.scratch.split_at_mut(n2);
+    let (a2, a3) = (&tab.a[1], &tab.a[2]);
+    for r in 0..n {
+        let x2 = &xm[r * s..r * s + n];
+        let x3 = &xm[r * s + n..(r + 1) * s];
+        for c in 0..n {
+            ya[r * n + c] = -h * (a2[0] * x2[c] + a3[0] * x3[c]);
+            yb[r * n + c] = -h * (a2[3] * x2[c] + a3[3] * x3[c]);
+            abp[r * wc + c] += x2[c] + x3[c];
+        }
+    }
+    sub_mat_mul_strided(&mut abp[..], wc, 0, ya, jy(0), n, n, n);
+    sub_mat_mul_strided(&mut abp[..], wc, n, yb, jy(3), n, n, n);
+    if k > 0 {
+        sub_mat_mul_strided(&mut abp[..], wc, 2 * n, xm, mp, n, s, k);
+    }
+    if abp.iter().all(|v| v.is_finite()) {
+        Ok(())
+    } else {
+        Err(i)
     }
 }
 

@@ -97,9 +97,14 @@ impl GlobalSystem {
             .map_err(|AbdError::Singular| FactorError::Singular)
     }
 
-    /// Growth of the last factorisation (see [`BorderedAbd::growth`]).
+    /// Growth of the last factorisation (see `BorderedAbd::growth`).
     pub fn growth(&self) -> f64 {
         self.abd.growth()
+    }
+
+    /// Smallest relative pivot of the last factorisation (see `BorderedAbd::min_pivot`).
+    pub fn min_pivot(&self) -> f64 {
+        self.abd.min_pivot()
     }
 
     /// Solve `J x = rhs` in place with the last factorisation. Returns `false` if there is

@@ -296,6 +296,7 @@ fn estimate_conditioning(
     stats.bc_condition = sys.bc_sensitivity(col.lay.bc_offset(), col.lay.n + col.lay.k);
     stats.condition_estimate = sys.condition_estimate();
     stats.factor_growth = sys.growth();
+    stats.factor_min_pivot = sys.min_pivot();
     stats.bc_condition * options.tol <= options.conditioning_limit
         && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR
 }

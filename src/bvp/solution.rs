@@ -114,6 +114,9 @@ pub struct Stats {
     /// relative to the 2-norm of its column of the row-equilibrated matrix. At most 1 up to
     /// rounding for an orthogonal reduction; reported as evidence of a stable solve.
     pub factor_growth: f64,
+    /// Smallest pivot of that factorisation relative to its column of the row-equilibrated
+    /// matrix (in (0, 1]; small when the matrix is near singular).
+    pub factor_min_pivot: f64,
 }
 
 /// One report to the progress hook.
