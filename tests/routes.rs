@@ -420,6 +420,22 @@ fn a_start_too_stiff_at_a_small_beta_m_solves_at_the_target_beta() {
     assert!(v.verification.passed(), "{:?}", v.verification.verdict());
 }
 
+/// Corpus problem fast-038: the polish fails (directly and in tolerance steps) on a solution
+/// whose ξ nearly vanishes (measured min |ξ| 0.014, α = 0.18 against β = 2.57), and the stop
+/// says so: the collapse, √(α/β) and the turning rate.
+#[test]
+fn a_polish_that_fails_where_xi_nearly_vanishes_says_so() {
+    let (stage, reason, partial) = stopped("fast_038_polish_collapse.toml");
+    assert_eq!(stage, "polish");
+    assert!(
+        reason.contains("xi nearly vanishes on the solution"),
+        "{reason}"
+    );
+    assert!(reason.contains("raise alpha"), "{reason}");
+    let min_xi = min_xi(&partial.bvp);
+    assert!(min_xi < 0.05, "{min_xi}");
+}
+
 /// Corpus problem fast-139 (α = 0.16 against β = 2.98): its solution's ξ nearly vanishes
 /// (min |ξ| 0.011). With the sparse LU of session 9 the polish from 1e-7 to 1e-8 failed on it;
 /// with the structured QR of the Newton matrix (#13) the polish converges: solved and
