@@ -175,7 +175,7 @@ pub(crate) struct Collocation {
     /// The stage residuals `Phi_st,i` of the last [`reduce_residual`](Self::reduce_residual).
     z: Vec<f64>,
     work: Vec<f64>,
-    /// Scratch of the condensation (`2 n^2` for each of two threads).
+    /// Scratch of the condensation (`2 n^2`).
     cond_work: Vec<f64>,
     bc_work: Vec<f64>,
 }
@@ -207,7 +207,7 @@ impl Collocation {
             bc_blocks: vec![0.0; (n + k) * wc],
             z: vec![0.0; nn * s],
             work: vec![0.0; 2 * n + k],
-            cond_work: vec![0.0; 4 * n * n],
+            cond_work: vec![0.0; 2 * n * n],
             bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
         }
     }
@@ -357,14 +357,11 @@ impl Collocation {
         .map_err(|_| nn)
     }
 
-    /// Condense every interval (in the AVX2 copy where the CPU has it); on meshes of at
-    /// least [`PARALLEL_INTERVALS`] intervals the second half on a second thread (each
-    /// interval is computed the same way whichever thread does it: the results are bitwise
-    /// the same).
+    /// Condense every interval (in the AVX2 copy where the CPU has it). (Two threads, each
+    /// condensing half of the intervals, were tried and measured: no faster on this 2-core
+    /// machine even at N = 10^4, and 3x slower at N = 100 when the other core is busy;
+    /// bench/README.md.)
     fn condense_all(&mut self) -> Result<(), usize> {
-        let Layout { n, k, .. } = self.lay;
-        let nn = self.lay.intervals();
-        let (s, wc) = (2 * n, 2 * n + k);
         let jac = StageJacobians {
             lay: self.lay,
             tab: &self.tab,
@@ -382,44 +379,9 @@ impl Collocation {
             abp: &mut self.abp,
             scratch: &mut self.cond_work,
         };
-        let threads = std::thread::available_parallelism().map_or(1, |t| t.get());
-        if nn < PARALLEL_INTERVALS || threads < 2 {
-            return condense_range(&jac, 0, out);
-        }
-        let mid = nn / 2;
-        let (scratch, scratch2) = out.scratch.split_at_mut(2 * n * n);
-        let (klu, klu2) = out.klu.split_at_mut(mid * s * s);
-        let (kpiv, kpiv2) = out.kpiv.split_at_mut(mid * s);
-        let (mp, mp2) = out.mp.split_at_mut(mid * s * k);
-        let (xmat, xmat2) = out.xmat.split_at_mut(mid * n * s);
-        let (abp, abp2) = out.abp.split_at_mut(mid * n * wc);
-        let first = CondensedBlocks {
-            klu,
-            kpiv,
-            mp,
-            xmat,
-            abp,
-            scratch,
-        };
-        let second = CondensedBlocks {
-            klu: klu2,
-            kpiv: kpiv2,
-            mp: mp2,
-            xmat: xmat2,
-            abp: abp2,
-            scratch: scratch2,
-        };
-        let jac = &jac;
-        std::thread::scope(|scope| {
-            let other = scope.spawn(move || condense_range(jac, mid, second));
-            let mine = condense_range(jac, 0, first);
-            // A panic in the other half is a bug: propagate it.
-            let theirs = other
-                .join()
-                .unwrap_or_else(|e| std::panic::resume_unwind(e));
-            mine.and(theirs)
-        })
+        condense_range(&jac, 0, out)
     }
+
     /// Boundary Jacobians into `bc_blocks` (row-major `(n+k) x (2n+k)`: `[dya dyb dp]`).
     fn evaluate_bc_jacobian<P: BvpProblem + ?Sized>(
         &mut self,
@@ -535,10 +497,6 @@ impl Collocation {
     }
 }
 
-/// Meshes with at least this many intervals are condensed on two threads (below it the
-/// thread costs more than it saves).
-pub(crate) const PARALLEL_INTERVALS: usize = 64;
-
 /// What the condensation of an interval reads: the Jacobians at nodes and stages.
 struct StageJacobians<'a> {
     lay: Layout,
@@ -551,7 +509,8 @@ struct StageJacobians<'a> {
 }
 
 /// What it writes, for a run of consecutive intervals (the slices start at the run's first
-/// interval), and a scratch of `2 n^2`.
+/// interval), and a scratch of `2 n^2`. (Runs of intervals are independent: they could go
+/// to different threads.)
 struct CondensedBlocks<'a> {
     klu: &'a mut [f64],
     kpiv: &'a mut [usize],
