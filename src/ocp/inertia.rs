@@ -222,13 +222,18 @@ pub enum InertiaError {
 #[derive(Debug)]
 struct PatternInner {
     n: usize,
-    /// Upper triangle (`row ≤ col`) of the *augmented* pattern (user pattern, whole diagonal,
-    /// and the explicit zeros that make paired rows indistinguishable), compressed sparse
-    /// columns, rows sorted.
+    /// Upper triangle (`row ≤ col`) of the user pattern and the whole diagonal, compressed
+    /// sparse columns, rows sorted (the diagonal last in its column). The numeric work
+    /// (equilibration, products, the values handed to faer) runs on this pattern; the
+    /// explicit zeros of the augmented pattern (see [`SymmetricPattern`]) only shape the
+    /// symbolic analysis (faer accepts any matrix whose pattern is contained in the analysed
+    /// one).
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     /// For each user entry, its position in `row_idx`.
     entry_pos: Vec<usize>,
+    /// Number of stored entries of the upper triangle of the augmented pattern.
+    nnz_augmented: usize,
     /// For each user entry, `(row, col)` as given (for error messages).
     entries: Vec<(usize, usize)>,
     /// Number of groups of rows (a structurally zero-diagonal row and its neighbour(s)) kept
@@ -494,14 +499,31 @@ impl SymmetricPattern {
         upper.dedup();
         let aug = Csr::from_sorted_pairs(n, &upper);
         drop(upper);
-        let (col_ptr, row_idx) = (aug.row_ptr, aug.col_idx);
+        let (aug_col_ptr, aug_row_idx) = (aug.row_ptr, aug.col_idx);
+        // The user pattern and the diagonal (upper triangle, `(col, row)` pairs): the numeric
+        // pattern, contained in the augmented one.
+        let mut user: Vec<(usize, usize)> = entries
+            .iter()
+            .map(|&(r, c)| (r.max(c), r.min(c)))
+            .chain((0..n).map(|i| (i, i)))
+            .collect();
+        user.sort_unstable();
+        user.dedup();
+        let compact = Csr::from_sorted_pairs(n, &user);
+        drop(user);
+        let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
         let mut entry_pos = Vec::with_capacity(entries.len());
         for &(row, col) in entries {
             let (r, c) = (row.min(col), row.max(col));
-            let rows = &row_idx[col_ptr[c]..col_ptr[c + 1]];
-            match rows.binary_search(&r) {
-                Ok(k) => entry_pos.push(col_ptr[c] + k),
-                Err(_) => {
+            let found = |cp: &[usize], ri: &[usize]| {
+                ri[cp[c]..cp[c + 1]]
+                    .binary_search(&r)
+                    .map(|k| cp[c] + k)
+                    .ok()
+            };
+            match (found(&col_ptr, &row_idx), found(&aug_col_ptr, &aug_row_idx)) {
+                (Some(k), Some(_)) => entry_pos.push(k),
+                _ => {
                     return Err(InertiaError::Symbolic(format!(
                         "internal error: entry ({row}, {col}) missing from the augmented pattern"
                     )))
@@ -509,8 +531,10 @@ impl SymmetricPattern {
             }
         }
 
+        let nnz_augmented = aug_row_idx.len();
         let symbolic = guarded("symbolic analysis", || {
-            let pattern = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
+            let pattern =
+                SymbolicSparseColMatRef::new_checked(n, n, &aug_col_ptr, None, &aug_row_idx);
             let perm = PermRef::new_checked(&perm_fwd, &perm_inv, n);
             factorize_symbolic_cholesky(
                 pattern,
@@ -534,6 +558,7 @@ impl SymmetricPattern {
                 col_ptr,
                 row_idx,
                 entry_pos,
+                nnz_augmented,
                 entries: entries.to_vec(),
                 n_groups: n_grouped,
                 symbolic,
@@ -549,7 +574,7 @@ impl SymmetricPattern {
     /// Number of stored entries of the upper triangle of the augmented pattern (diagonal and
     /// explicit zeros included).
     pub fn nnz_upper(&self) -> usize {
-        self.inner.row_idx.len()
+        self.inner.nnz_augmented
     }
 
     /// Number of stored values of the factor `L` (supernodal storage, explicit zeros included).
@@ -682,7 +707,8 @@ fn match_zero_diagonal(n: usize, adj: &Csr, has_diag: &[bool]) -> Vec<usize> {
 #[derive(Debug, Clone)]
 pub struct LbltFactor {
     pattern: SymmetricPattern,
-    /// Original (unscaled) values of the upper triangle, in `row_idx` order.
+    /// Original (unscaled) values of the upper triangle, in the order of the numeric pattern
+    /// (`PatternInner::row_idx`).
     values: Vec<f64>,
     /// Diagonal scaling `D` (powers of two).
     scaling: Vec<f64>,
