@@ -312,9 +312,15 @@ impl SymmetricPattern {
 
     /// Like [`SymmetricPattern::new`], with the elimination order given by the caller instead
     /// of AMD: `groups` partitions `0..n` into pivot groups listed in elimination order; the
-    /// members of a group share their structure, so they are eliminated together in one
-    /// supernode, where Bunch–Kaufman can take `2 × 2` pivots among them (e.g. a KKT pair
-    /// `[[h, a], [a, 0]]` of a state and the constraint that determines it).
+    /// members of a group are given the same structure (explicit zeros), so they are
+    /// eliminated together in one supernode, where Bunch–Kaufman can take `2 × 2` pivots
+    /// among them (e.g. a KKT pair `[[h, a], [a, 0]]` of a state and the constraint that
+    /// determines it).
+    ///
+    /// The order of the members inside a group matters for the fill only: a group's factor
+    /// reaches into a later group up to the last member that it touches (the structure below
+    /// a group meets each later group in a prefix; see `group_closed_pattern`), so list first
+    /// the members that earlier groups touch.
     pub fn with_groups(
         n: usize,
         entries: &[(usize, usize)],
@@ -482,15 +488,21 @@ impl SymmetricPattern {
             perm_inv[i] = k;
         }
 
-        // Augmented upper pattern: expansion of the compressed graph (all members of adjacent
-        // groups are adjacent), which contains the user pattern and the whole diagonal.
+        // Augmented upper pattern, which contains the user pattern and the whole diagonal.
         let mut upper: Vec<(usize, usize)> = Vec::new();
-        for ga in 0..n_groups {
-            for &gb in comp.row(ga) {
-                // `comp` stores (col = ga, row = gb ≤ ga).
-                for &i in &members[gb] {
-                    for &j in &members[ga] {
-                        upper.push((i.max(j), i.min(j)));
+        if given_groups.is_some() {
+            // Given groups (eliminated in their order, members in theirs): see
+            // `group_closed_pattern`.
+            group_closed_pattern(&adj, &group, &members, &mut upper);
+        } else {
+            // Expansion of the compressed graph: all members of adjacent groups are adjacent.
+            for ga in 0..n_groups {
+                for &gb in comp.row(ga) {
+                    // `comp` stores (col = ga, row = gb ≤ ga).
+                    for &i in &members[gb] {
+                        for &j in &members[ga] {
+                            upper.push((i.max(j), i.min(j)));
+                        }
                     }
                 }
             }
@@ -549,8 +561,30 @@ impl SymmetricPattern {
             )
         })?
         .map_err(|e| InertiaError::Symbolic(format!("{e:?}")))?;
-        if !matches!(symbolic.raw(), SymbolicCholeskyRaw::Supernodal(_)) {
+        let SymbolicCholeskyRaw::Supernodal(supernodal) = symbolic.raw() else {
             return Err(InertiaError::NotSupernodal);
+        };
+        if given_groups.is_some() {
+            // Each group must lie in one supernode (`group_closed_pattern`); the groups are
+            // consecutive in the ordering.
+            let begin = supernodal.supernode_begin();
+            let mut s = 0;
+            let mut start = 0;
+            for (g, m) in members.iter().enumerate() {
+                if m.is_empty() {
+                    continue;
+                }
+                while begin.get(s + 1).is_some_and(|&b| b <= start) {
+                    s += 1;
+                }
+                let end = start + m.len();
+                if begin.get(s + 1).is_some_and(|&b| b < end) {
+                    return Err(InertiaError::Symbolic(format!(
+                        "internal error: pivot group {g} is split across supernodes"
+                    )));
+                }
+                start = end;
+            }
         }
         Ok(Self {
             inner: Arc::new(PatternInner {
@@ -615,6 +649,72 @@ impl Csr {
 
     fn row(&self, i: usize) -> &[usize] {
         &self.col_idx[self.row_ptr[i]..self.row_ptr[i + 1]]
+    }
+}
+
+/// The augmented pattern of given pivot groups, eliminated in their order (group `g` before
+/// `g + 1`), as `(col, row)` pairs with `row ≤ col` (unsorted, possibly repeated), such that
+/// the members of every group fall in one fundamental supernode of the factorization:
+///
+/// - each group is a dense block (so member `j + 1` is the parent of member `j` in the
+///   elimination tree);
+/// - every member of group `g` is adjacent to the same set `U_g` of rows of later groups: the
+///   rows adjacent to some member of `g` (the union), closed so that `U_g` meets each later
+///   group in a *prefix* of its members (if it contains a member, it contains those listed
+///   before it).
+///
+/// Then, by induction over the groups, the structure of the factor below any column meets each
+/// later group in a prefix (unions of prefixes are prefixes), so a column outside a group
+/// whose elimination-tree parent lies in that group has the group's first member as parent:
+/// the other members have exactly one child (their predecessor), and all members of a group
+/// have the same structure below it. That is faer's criterion of a fundamental supernode.
+/// Compared with making all members of adjacent groups adjacent, the factor loses the rows of
+/// a later group that no member of `g` touches (for a collocation KKT matrix whose interval
+/// groups list their constraints first, the next interval's unknowns).
+fn group_closed_pattern(
+    adj: &Csr,
+    group: &[usize],
+    members: &[Vec<usize>],
+    upper: &mut Vec<(usize, usize)>,
+) {
+    let n = group.len();
+    let mut pos = vec![0usize; n];
+    for m in members {
+        for (k, &i) in m.iter().enumerate() {
+            pos[i] = k;
+        }
+    }
+    // For the current group: the later groups touched, and how far into each.
+    let mut reach = vec![NONE; members.len()];
+    let mut touched: Vec<usize> = Vec::new();
+    for (g, m) in members.iter().enumerate() {
+        for &i in m {
+            for &j in m {
+                if j <= i {
+                    upper.push((i, j));
+                }
+            }
+            for &w in adj.row(i) {
+                let gw = group[w];
+                if gw > g {
+                    if reach[gw] == NONE {
+                        touched.push(gw);
+                        reach[gw] = pos[w];
+                    } else {
+                        reach[gw] = reach[gw].max(pos[w]);
+                    }
+                }
+            }
+        }
+        for &gw in &touched {
+            for &r in &members[gw][..=reach[gw]] {
+                for &j in m {
+                    upper.push((r.max(j), r.min(j)));
+                }
+            }
+            reach[gw] = NONE;
+        }
+        touched.clear();
     }
 }
 
@@ -1772,6 +1872,57 @@ mod tests {
         );
         assert_eq!(f.inertia(), expected);
         assert!(t_factor.as_secs_f64() < 2.0);
+    }
+
+    #[test]
+    fn given_groups_stay_in_supernodes() {
+        // Time-ordered groups (a block, or two, per group) with their members shuffled: the
+        // analysis checks that every group lies in one supernode, and the inertia is exact.
+        let mut rng = XorShift64::new(5);
+        for (nb, per_group) in [(30usize, 1usize), (41, 2), (25, 3)] {
+            let neg: Vec<usize> = (0..nb).step_by(7).collect();
+            let (s, expected) = banded_kkt(nb, &neg, 40 + nb as u64);
+            let mut groups: Vec<Vec<usize>> = (0..nb.div_ceil(per_group))
+                .map(|g| (15 * per_group * g..(15 * per_group * (g + 1)).min(s.n)).collect())
+                .collect();
+            for g in &mut groups {
+                for i in (1..g.len()).rev() {
+                    g.swap(i, below(&mut rng, i + 1));
+                }
+            }
+            let pattern = SymmetricPattern::with_groups(s.n, &s.entries, &groups).unwrap();
+            let f = LbltFactor::factorize(&pattern, &s.values).unwrap();
+            let (dense_expected, _, _) = dense_inertia(&dense(s.n, &s.entries, &s.values), 1e-10);
+            eprintln!(
+                "grouped banded kkt ({nb} blocks, {per_group} per group): nnz(L) = {}, inertia {} \
+                 (expected {expected}), berr = {:.1e}",
+                pattern.nnz_factor(),
+                f.inertia(),
+                f.backward_error()
+            );
+            assert_eq!(f.inertia(), expected);
+            assert_eq!(dense_expected, expected);
+        }
+        // Arbitrary patterns and partitions: the analysis never splits a group.
+        for seed in 0..8u64 {
+            let s = random_sym(90, 5, 60 + seed, |_, r| r.uniform(-1.0, 1.0));
+            let mut order: Vec<usize> = (0..s.n).collect();
+            for i in (1..s.n).rev() {
+                order.swap(i, below(&mut rng, i + 1));
+            }
+            let mut groups = Vec::new();
+            let mut rest = &order[..];
+            while !rest.is_empty() {
+                let k = (1 + below(&mut rng, 6)).min(rest.len());
+                groups.push(rest[..k].to_vec());
+                rest = &rest[k..];
+            }
+            let pattern = SymmetricPattern::with_groups(s.n, &s.entries, &groups).unwrap();
+            if let Ok(f) = LbltFactor::factorize(&pattern, &s.values) {
+                let (expected, _, _) = dense_inertia(&dense(s.n, &s.entries, &s.values), 1e-10);
+                assert_eq!(f.inertia(), expected);
+            }
+        }
     }
 
     /// Factorizes; if it succeeds the inertia must equal the dense one, otherwise the error is
