@@ -21,10 +21,12 @@
 //!
 //! With `M` the metric of [`Transcription::metric_diagonal`] (`‖δv‖²_M ≈ ∫|δu|² dt` plus the
 //! free initial data), the number of negative eigenvalues above `m` at shift `σ` is the number
-//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. Bisection on `σ` brackets the
+//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. Two such counts bracket the
 //! smallest one, `μ_min`: the second variation satisfies `δ²ℒ ≥ μ_min ‖δv‖²_M` on the
 //! linearized constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`,
-//! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`).
+//! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`). Where to put the two shifts is estimated by
+//! the Lanczos method with a factorization already at hand (solves only); the bracket rests
+//! on the counts alone, and bisection on `σ` remains the fallback (see `margin`).
 
 use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
