@@ -657,7 +657,7 @@ pub fn certify<P: OcpProblem + ?Sized>(
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
     let second_order = second_order(tr, &matrix, &point, opts)?;
-    let conjugate = first_conjugate_point(tr, &point)?;
+    let conjugate = first_conjugate_point(tr, &matrix, &point)?;
     Ok(Certificate {
         candidate,
         newton_iterations: newton.residuals.len() - 1,

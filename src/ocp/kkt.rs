@@ -100,6 +100,8 @@ fn norm_inf(x: &[f64]) -> f64 {
 /// factorized by a pivoted `L B Lᵀ` ([`super::inertia`]) for every solve and inertia count.
 pub struct KktMatrix {
     pattern: SymmetricPattern,
+    /// The `(row, column)` of each value, in the order of [`KktMatrix::values`].
+    entries: Vec<(usize, usize)>,
     n_var: usize,
     n_con: usize,
 }
@@ -120,6 +122,7 @@ impl KktMatrix {
         let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
         Ok(Self {
             pattern,
+            entries,
             n_var: nv,
             n_con: nc,
         })
@@ -134,6 +137,18 @@ impl KktMatrix {
         values.extend(h.iter().map(|e| e.2));
         values.extend(a.iter().map(|e| e.2));
         values
+    }
+
+    /// `values` with every entry in a row or column outside `kept` set to zero: the principal
+    /// submatrix on `kept`, bordered by exactly zero rows (which a factorization deflates and
+    /// counts as zero eigenvalues: `inertia = inertia(submatrix) + (0, 0, #removed)`), on the
+    /// same analysed pattern.
+    pub fn principal_values(&self, values: &[f64], kept: impl Fn(usize) -> bool) -> Vec<f64> {
+        values
+            .iter()
+            .zip(&self.entries)
+            .map(|(&v, &(r, c))| if kept(r) && kept(c) { v } else { 0.0 })
+            .collect()
     }
 
     /// A factorization of the matrix with `values`.
