@@ -385,9 +385,7 @@ impl SymmetricPattern {
                 edges.push((col, row));
             }
         }
-        edges.sort_unstable();
-        edges.dedup();
-        let adj = Csr::from_sorted_pairs(n, &edges);
+        let adj = Csr::from_pairs(n, &edges);
         drop(edges);
 
         // Pair structurally zero-diagonal rows with neighbours; a zero-diagonal row left
@@ -453,9 +451,7 @@ impl SymmetricPattern {
             }
         }
         cedges.extend((0..n_groups).map(|g| (g, g)));
-        cedges.sort_unstable();
-        cedges.dedup();
-        let comp = Csr::from_sorted_pairs(n_groups, &cedges);
+        let comp = Csr::from_pairs(n_groups, &cedges);
         let mut cfwd: Vec<usize> = (0..n_groups).collect();
         let mut cinv = vec![0usize; n_groups];
         if given_groups.is_none() {
@@ -507,21 +503,17 @@ impl SymmetricPattern {
                 }
             }
         }
-        upper.sort_unstable();
-        upper.dedup();
-        let aug = Csr::from_sorted_pairs(n, &upper);
+        let aug = Csr::from_pairs(n, &upper);
         drop(upper);
         let (aug_col_ptr, aug_row_idx) = (aug.row_ptr, aug.col_idx);
         // The user pattern and the diagonal (upper triangle, `(col, row)` pairs): the numeric
         // pattern, contained in the augmented one.
-        let mut user: Vec<(usize, usize)> = entries
+        let user: Vec<(usize, usize)> = entries
             .iter()
             .map(|&(r, c)| (r.max(c), r.min(c)))
             .chain((0..n).map(|i| (i, i)))
             .collect();
-        user.sort_unstable();
-        user.dedup();
-        let compact = Csr::from_sorted_pairs(n, &user);
+        let compact = Csr::from_pairs(n, &user);
         drop(user);
         let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
         let mut entry_pos = Vec::with_capacity(entries.len());
@@ -625,25 +617,51 @@ impl SymmetricPattern {
 
 const NONE: usize = usize::MAX;
 
-/// Compressed rows built from sorted, deduplicated `(row, col)` pairs (also used as compressed
-/// columns of the transpose).
+/// Compressed rows, columns sorted and distinct in each row (also used as compressed columns
+/// of the transpose).
 struct Csr {
     row_ptr: Vec<usize>,
     col_idx: Vec<usize>,
 }
 
 impl Csr {
-    fn from_sorted_pairs(n: usize, pairs: &[(usize, usize)]) -> Self {
-        let mut row_ptr = vec![0usize; n + 1];
+    /// From `(row, col)` pairs in any order, repeats allowed: a counting sort by row, then each
+    /// (short) row sorted and deduplicated.
+    fn from_pairs(n: usize, pairs: &[(usize, usize)]) -> Self {
+        let mut start = vec![0usize; n + 1];
         for &(r, _) in pairs {
-            row_ptr[r + 1] += 1;
+            start[r + 1] += 1;
         }
         for i in 0..n {
-            row_ptr[i + 1] += row_ptr[i];
+            start[i + 1] += start[i];
         }
+        let mut next = start.clone();
+        let mut cols = vec![0usize; pairs.len()];
+        for &(r, c) in pairs {
+            cols[next[r]] = c;
+            next[r] += 1;
+        }
+        let mut row_ptr = Vec::with_capacity(n + 1);
+        row_ptr.push(0);
+        let mut len = 0;
+        for i in 0..n {
+            let row = &mut cols[start[i]..start[i + 1]];
+            row.sort_unstable();
+            let mut prev = NONE;
+            for k in start[i]..start[i + 1] {
+                let c = cols[k];
+                if c != prev {
+                    cols[len] = c;
+                    len += 1;
+                    prev = c;
+                }
+            }
+            row_ptr.push(len);
+        }
+        cols.truncate(len);
         Self {
             row_ptr,
-            col_idx: pairs.iter().map(|&(_, c)| c).collect(),
+            col_idx: cols,
         }
     }
 
