@@ -825,9 +825,14 @@ fn match_zero_diagonal(n: usize, adj: &Csr, has_diag: &[bool]) -> Vec<usize> {
 #[derive(Debug, Clone)]
 pub struct LbltFactor {
     pattern: SymmetricPattern,
-    /// Original (unscaled) values of the upper triangle, in the order of the numeric pattern
-    /// (`PatternInner::row_idx`).
+    /// The upper triangle of `K` without its exact zeros off the diagonal (the diagonal is
+    /// always stored, last in its column): compressed sparse columns, rows sorted, and the
+    /// original (unscaled) values.
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
     values: Vec<f64>,
+    /// `‖K‖∞`.
+    norm_k: f64,
     /// Diagonal scaling `D` (powers of two).
     scaling: Vec<f64>,
     /// Rows/columns of `K` that are exactly zero (deflated).
@@ -894,21 +899,40 @@ impl LbltFactor {
             });
         }
 
-        // Equilibration K̃ = D K D, and exact zero rows.
-        let scaling = equilibrate(n, &p.col_ptr, &p.row_idx, &vals);
-        let mut scaled = vals.clone();
+        // The exact zeros off the diagonal are dropped (the same matrix, fewer stored
+        // entries for the products, the equilibration and faer's input).
+        let mut col_ptr = Vec::with_capacity(n + 1);
+        col_ptr.push(0);
+        let mut row_idx = Vec::with_capacity(vals.len());
+        let mut kept = Vec::with_capacity(vals.len());
         for j in 0..n {
             for k in p.col_ptr[j]..p.col_ptr[j + 1] {
-                scaled[k] *= scaling[p.row_idx[k]] * scaling[j];
+                let i = p.row_idx[k];
+                if vals[k] != 0.0 || i == j {
+                    row_idx.push(i);
+                    kept.push(vals[k]);
+                }
+            }
+            col_ptr.push(row_idx.len());
+        }
+        let vals = kept;
+
+        // Equilibration K̃ = D K D, and exact zero rows.
+        let scaling = equilibrate(n, &col_ptr, &row_idx, &vals);
+        let mut scaled = vals.clone();
+        for j in 0..n {
+            for k in col_ptr[j]..col_ptr[j + 1] {
+                scaled[k] *= scaling[row_idx[k]] * scaling[j];
             }
         }
-        let row_max = row_max_abs(n, &p.col_ptr, &p.row_idx, &scaled);
+        let row_max = row_max_abs(n, &col_ptr, &row_idx, &scaled);
         let zero_rows: Vec<usize> = (0..n).filter(|&i| row_max[i] == 0.0).collect();
         for &i in &zero_rows {
             // The diagonal is always stored, and is the last entry of its upper column.
-            scaled[p.col_ptr[i + 1] - 1] = 1.0;
+            scaled[col_ptr[i + 1] - 1] = 1.0;
         }
-        let norm_inf = sym_norm_inf(n, &p.col_ptr, &p.row_idx, &scaled).max(f64::MIN_POSITIVE);
+        let norm_inf = sym_norm_inf(n, &col_ptr, &row_idx, &scaled).max(f64::MIN_POSITIVE);
+        let norm_k = sym_norm_inf(n, &col_ptr, &row_idx, &vals);
 
         // Numeric factorization.
         let symbolic = &p.symbolic;
@@ -933,8 +957,7 @@ impl LbltFactor {
             let req = symbolic.factorize_numeric_intranode_lblt_scratch::<f64>(par, params);
             let mut mem = MemBuffer::try_new(req).map_err(|_| InertiaError::OutOfMemory)?;
             guarded("numeric LBLᵀ factorization", || {
-                let a_sym =
-                    SymbolicSparseColMatRef::new_checked(n, n, &p.col_ptr, None, &p.row_idx);
+                let a_sym = SymbolicSparseColMatRef::new_checked(n, n, &col_ptr, None, &row_idx);
                 let a = SparseColMatRef::new(a_sym, &scaled);
                 // The returned view borrows the buffers; they are read back below.
                 let _ = symbolic.factorize_numeric_intranode_lblt(
@@ -1032,7 +1055,10 @@ impl LbltFactor {
 
         let mut factor = Self {
             pattern: pattern.clone(),
+            col_ptr,
+            row_idx,
             values: vals,
+            norm_k,
             scaling,
             zero_rows,
             l_values,
@@ -1184,11 +1210,10 @@ impl LbltFactor {
 
     /// `y = K x` with the original values.
     fn matvec(&self, x: &[f64], y: &mut [f64]) {
-        let p = &*self.pattern.inner;
         y.iter_mut().for_each(|v| *v = 0.0);
-        for j in 0..p.n {
-            for k in p.col_ptr[j]..p.col_ptr[j + 1] {
-                let i = p.row_idx[k];
+        for j in 0..self.n() {
+            for k in self.col_ptr[j]..self.col_ptr[j + 1] {
+                let i = self.row_idx[k];
                 let a = self.values[k];
                 y[i] += a * x[j];
                 if i != j {
@@ -1196,11 +1221,6 @@ impl LbltFactor {
                 }
             }
         }
-    }
-
-    fn norm_k_inf(&self) -> f64 {
-        let p = &*self.pattern.inner;
-        sym_norm_inf(p.n, &p.col_ptr, &p.row_idx, &self.values)
     }
 
     /// One solve with the factors: `x = D K̃⁻¹ D rhs` (deflated rows set to zero).
@@ -1268,7 +1288,7 @@ impl LbltFactor {
     fn solve_refined(&self, rhs: &mut [f64]) -> Result<(f64, usize), InertiaError> {
         let n = self.n();
         let b = rhs.to_vec();
-        let norm_k = self.norm_k_inf();
+        let norm_k = self.norm_k;
         let norm_b = norm_inf(&b);
         self.solve_once(rhs)?;
         let mut r = vec![0.0; n];
@@ -1622,8 +1642,8 @@ mod tests {
         // Scaled, deflated matrix K̃ densely.
         let mut kt = faer::Mat::<f64>::zeros(n, n);
         for j in 0..n {
-            for k in p.col_ptr[j]..p.col_ptr[j + 1] {
-                let i = p.row_idx[k];
+            for k in f.col_ptr[j]..f.col_ptr[j + 1] {
+                let i = f.row_idx[k];
                 let v = f.values[k] * f.scaling[i] * f.scaling[j];
                 kt[(i, j)] = v;
                 kt[(j, i)] = v;
