@@ -918,14 +918,7 @@ impl LbltFactor {
         let vals = kept;
 
         // Equilibration K̃ = D K D, and exact zero rows.
-        let scaling = equilibrate(n, &col_ptr, &row_idx, &vals);
-        let mut scaled = vals.clone();
-        for j in 0..n {
-            for k in col_ptr[j]..col_ptr[j + 1] {
-                scaled[k] *= scaling[row_idx[k]] * scaling[j];
-            }
-        }
-        let row_max = row_max_abs(n, &col_ptr, &row_idx, &scaled);
+        let (scaling, mut scaled, row_max) = equilibrate(n, &col_ptr, &row_idx, &vals);
         let zero_rows: Vec<usize> = (0..n).filter(|&i| row_max[i] == 0.0).collect();
         for &i in &zero_rows {
             // The diagonal is always stored, and is the last entry of its upper column.
@@ -1391,17 +1384,26 @@ fn sym_norm_inf(n: usize, col_ptr: &[usize], row_idx: &[usize], vals: &[f64]) ->
 }
 
 /// Symmetric Ruiz equilibration in the ∞-norm: returns `D` (powers of two, `1` on zero rows)
-/// such that the rows of `D K D` have max-norm close to 1.
-fn equilibrate(n: usize, col_ptr: &[usize], row_idx: &[usize], vals: &[f64]) -> Vec<f64> {
+/// such that the rows of `D K D` have max-norm close to 1, the values of `D K D` (exact: the
+/// scalings are powers of two), and the max-norms of its rows.
+fn equilibrate(
+    n: usize,
+    col_ptr: &[usize],
+    row_idx: &[usize],
+    vals: &[f64],
+) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
     let mut d = vec![1.0f64; n];
     let mut scaled = vals.to_vec();
+    let mut r = row_max_abs(n, col_ptr, row_idx, &scaled);
     for _ in 0..EQUILIBRATION_SWEEPS {
-        let r = row_max_abs(n, col_ptr, row_idx, &scaled);
         let mut changed = false;
         let factors: Vec<f64> = r
             .iter()
             .map(|&ri| {
-                if ri > 0.0 && ri.is_finite() {
+                if ri > 0.7 && ri < 1.4 {
+                    // −log2(ri)/2 ∈ (−0.25, 0.26): the factor below is 1.
+                    1.0
+                } else if ri > 0.0 && ri.is_finite() {
                     // Nearest power of two to 1/sqrt(ri).
                     let e = (-0.5 * ri.log2()).round() as i32;
                     let e = e.clamp(-500, 500);
@@ -1417,14 +1419,19 @@ fn equilibrate(n: usize, col_ptr: &[usize], row_idx: &[usize], vals: &[f64]) -> 
         if !changed {
             break;
         }
+        r.iter_mut().for_each(|x| *x = 0.0);
         for j in 0..n {
             d[j] *= factors[j];
             for k in col_ptr[j]..col_ptr[j + 1] {
-                scaled[k] *= factors[row_idx[k]] * factors[j];
+                let i = row_idx[k];
+                scaled[k] *= factors[i] * factors[j];
+                let a = scaled[k].abs();
+                r[i] = r[i].max(a);
+                r[j] = r[j].max(a);
             }
         }
     }
-    d
+    (d, scaled, r)
 }
 
 /// Small deterministic xorshift generator (for the test right-hand side and the tests).
