@@ -181,11 +181,16 @@ impl<'k> ShiftedKkt<'k> {
     }
 
     /// The unknowns `v⁺` of `K(σ) [v⁺; y] = [M v; 0]` for a factorization of `K(σ)` (`None`
-    /// if the solve fails or is not finite).
-    fn apply_inverse(&self, factor: &LbltFactor, v: &[f64]) -> Option<Vec<f64>> {
+    /// if the solve fails or is not finite), with iterative refinement unless `estimate`.
+    fn apply_inverse(&self, factor: &LbltFactor, v: &[f64], estimate: bool) -> Option<Vec<f64>> {
         let mut rhs: Vec<f64> = v.iter().zip(&self.metric).map(|(x, d)| d * x).collect();
         rhs.resize(self.n_var + self.n_con, 0.0);
-        if factor.solve_in_place(&mut rhs).is_err() || !rhs.iter().all(|x| x.is_finite()) {
+        let solved = if estimate {
+            factor.solve_in_place_unrefined(&mut rhs).is_ok()
+        } else {
+            factor.solve_in_place(&mut rhs).is_ok()
+        };
+        if !solved || !rhs.iter().all(|x| x.is_finite()) {
             return None;
         }
         rhs.truncate(self.n_var);
@@ -305,7 +310,7 @@ fn inverse_iteration(
     let mut v = start;
     let mut last = f64::NAN;
     for it in 0..12 {
-        v = kkt.apply_inverse(factor, &v)?;
+        v = kkt.apply_inverse(factor, &v, false)?;
         let n = kkt.m_dot(&v, &v).sqrt();
         if n.is_nan() || n <= 0.0 {
             return None;
@@ -517,7 +522,7 @@ fn lanczos(
     let restrict = |v: &[f64]| -> Vec<f64> { visible.iter().map(|&i| v[i]).collect() };
     let steps = LANCZOS_MAX_STEPS.min(visible.len());
     // The first vector: one inverse iteration from the deterministic start.
-    let mut q = restrict(&kkt.apply_inverse(factor, &kkt.start_vector())?);
+    let mut q = restrict(&kkt.apply_inverse(factor, &kkt.start_vector(), true)?);
     let norm = dot(&q, &q).sqrt();
     if !(norm > 0.0 && norm.is_finite()) {
         return None;
@@ -528,7 +533,7 @@ fn lanczos(
     let mut images: Vec<Vec<f64>> = Vec::new();
     let (mut alpha, mut beta): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
     for j in 0..steps {
-        let image = kkt.apply_inverse(factor, &embed(&basis[j]))?;
+        let image = kkt.apply_inverse(factor, &embed(&basis[j]), true)?;
         let mut w = restrict(&image);
         images.push(image);
         alpha.push(dot(&w, &basis[j]));

@@ -1147,6 +1147,20 @@ impl LbltFactor {
         self.solve_refined(rhs).map(|(berr, _)| berr)
     }
 
+    /// Solves `K x = rhs` in place with the factors once, without refinement or backward error
+    /// (`rhs.len() == n`; deflated zero rows of `K` get `x_i = 0`): for estimates, such as the
+    /// vectors of an iterative eigenvalue method.
+    pub fn solve_in_place_unrefined(&self, rhs: &mut [f64]) -> Result<(), InertiaError> {
+        if rhs.len() != self.n() {
+            return Err(InertiaError::LengthMismatch {
+                what: "right-hand side",
+                expected: self.n(),
+                got: rhs.len(),
+            });
+        }
+        self.solve_once(rhs)
+    }
+
     /// Normwise backward error `‖K x − b‖∞ / (‖K‖∞ ‖x‖∞ + ‖b‖∞)` of the test solve made at
     /// factorization time (`b = K y`, `y` pseudo-random in `[-1, 1]ⁿ`), after refinement.
     pub fn backward_error(&self) -> f64 {
