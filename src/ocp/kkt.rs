@@ -248,7 +248,17 @@ pub fn newton<P: OcpProblem + ?Sized>(
     let mut residuals = Vec::new();
     let mut it = 0;
     loop {
-        let res = residual(tr, &pt);
+        // The residual as [`residual`] computes it, its pieces kept for the step.
+        let a = tr.jacobian(&pt.v);
+        let mut stationarity = tr.gradient(&pt.v);
+        let gradient_scale = norm_inf(&stationarity);
+        add_transpose_product(&a, &pt.y, &mut stationarity);
+        let constraints = tr.constraints(&pt.v);
+        let res = KktResidual {
+            stationarity: norm_inf(&stationarity),
+            gradient_scale,
+            feasibility: norm_inf(&constraints),
+        };
         residuals.push(res);
         if res.relative_stationarity() <= opts.tolerance && res.feasibility <= opts.tolerance {
             return Ok((pt, NewtonReport { residuals }));
@@ -261,10 +271,8 @@ pub fn newton<P: OcpProblem + ?Sized>(
                 feasibility: res.feasibility,
             });
         }
-        let a = tr.jacobian(&pt.v);
-        let mut rhs = tr.gradient(&pt.v);
-        add_transpose_product(&a, &pt.y, &mut rhs);
-        rhs.extend(tr.constraints(&pt.v));
+        let mut rhs = stationarity;
+        rhs.extend(constraints);
         rhs.iter_mut().for_each(|r| *r = -*r);
         let values = kkt.values(&zeros, &tr.lagrangian_hessian(&pt.v, &pt.y), &a);
         solve_kkt(kkt, &values, &mut rhs, "Newton step")?;
