@@ -561,7 +561,8 @@ fn lanczos(
             .enumerate()
             .max_by(|a, b| a.1.total_cmp(b.1))?;
         let s = eig.eigenvectors.column(top);
-        let invariant = !(b > 1e-13 * theta.abs());
+        // (A NaN `b` counts as a breakdown.)
+        let invariant = b.is_nan() || b <= 1e-13 * theta.abs();
         if theta > 0.0 && theta.is_finite() {
             let mu = sigma + 1.0 / theta;
             // |θ − θ_true| ≤ b |s_k| for an eigenvalue θ_true; dμ = dθ / θ².

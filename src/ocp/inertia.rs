@@ -906,11 +906,11 @@ impl LbltFactor {
         let mut row_idx = Vec::with_capacity(vals.len());
         let mut kept = Vec::with_capacity(vals.len());
         for j in 0..n {
-            for k in p.col_ptr[j]..p.col_ptr[j + 1] {
-                let i = p.row_idx[k];
-                if vals[k] != 0.0 || i == j {
+            let range = p.col_ptr[j]..p.col_ptr[j + 1];
+            for (&i, &v) in p.row_idx[range.clone()].iter().zip(&vals[range]) {
+                if v != 0.0 || i == j {
                     row_idx.push(i);
-                    kept.push(vals[k]);
+                    kept.push(v);
                 }
             }
             col_ptr.push(row_idx.len());
