@@ -21,10 +21,12 @@
 //!
 //! With `M` the metric of [`Transcription::metric_diagonal`] (`‖δv‖²_M ≈ ∫|δu|² dt` plus the
 //! free initial data), the number of negative eigenvalues above `m` at shift `σ` is the number
-//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. Bisection on `σ` brackets the
+//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. Two such counts bracket the
 //! smallest one, `μ_min`: the second variation satisfies `δ²ℒ ≥ μ_min ‖δv‖²_M` on the
 //! linearized constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`,
-//! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`).
+//! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`). Where to put the two shifts is estimated by
+//! the Lanczos method with a factorization already at hand (solves only); the bracket rests
+//! on the counts alone, and bisection on `σ` remains the fallback (see `margin`).
 
 use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
@@ -169,10 +171,53 @@ impl<'k> ShiftedKkt<'k> {
         self.kkt.factorize(&values)
     }
 
-    /// Number of eigenvalues `μ < σ` (`None` if `σ` is (numerically) an eigenvalue).
-    fn count_below(&self, sigma: f64) -> Result<Option<usize>, SecondOrderError> {
-        let inertia = self.factorize(sigma)?.inertia();
-        self.excess(inertia)
+    /// `aᵀ M b`.
+    fn m_dot(&self, a: &[f64], b: &[f64]) -> f64 {
+        a.iter()
+            .zip(b)
+            .zip(&self.metric)
+            .map(|((x, y), d)| d * x * y)
+            .sum()
+    }
+
+    /// The unknowns `v⁺` of `K(σ) [v⁺; y] = [M v; 0]` for a factorization of `K(σ)` (`None`
+    /// if the solve fails or is not finite), with iterative refinement unless `estimate`.
+    fn apply_inverse(&self, factor: &LbltFactor, v: &[f64], estimate: bool) -> Option<Vec<f64>> {
+        let mut rhs: Vec<f64> = v.iter().zip(&self.metric).map(|(x, d)| d * x).collect();
+        rhs.resize(self.n_var + self.n_con, 0.0);
+        let solved = if estimate {
+            factor.solve_in_place_unrefined(&mut rhs).is_ok()
+        } else {
+            factor.solve_in_place(&mut rhs).is_ok()
+        };
+        if !solved || !rhs.iter().all(|x| x.is_finite()) {
+            return None;
+        }
+        rhs.truncate(self.n_var);
+        Some(rhs)
+    }
+
+    /// The Rayleigh quotient `vᵀHv / vᵀMv`.
+    fn rayleigh(&self, v: &[f64]) -> f64 {
+        let h: f64 = self
+            .hessian
+            .iter()
+            .map(|&(r, c, x)| {
+                if r == c {
+                    x * v[r] * v[r]
+                } else {
+                    2.0 * x * v[r] * v[c]
+                }
+            })
+            .sum();
+        h / self.m_dot(v, v)
+    }
+
+    /// A deterministic start with every component excited.
+    fn start_vector(&self) -> Vec<f64> {
+        (0..self.n_var)
+            .map(|i| 1.0 + 0.5 * ((i * 7919) % 13) as f64 / 13.0)
+            .collect()
     }
 
     /// `negative − m`, the number of negative eigenvalues of the reduced matrix (`None` if
@@ -224,143 +269,326 @@ pub fn second_order<P: OcpProblem + ?Sized>(
     } else {
         Verdict::NotMinimum
     };
-    report.margin = margin(&kkt, k0 == 0, opts, &mut report.factorizations)?;
-    if let Some((lo, hi)) = report.margin {
-        if let Some((v, q)) = weakest(&kkt, lo - (hi - lo).max(1e-3 * lo.abs()))? {
-            report.factorizations += 1;
-            report.weakest_direction = Some(v);
-            report.weakest_rayleigh = Some(q);
+    let Some(bracket) = margin(&kkt, factor, k0 == 0, opts, &mut report.factorizations)? else {
+        return Ok(report);
+    };
+    let (lo, hi) = (bracket.lo, bracket.hi);
+    report.margin = Some((lo, hi));
+    let weakest = match bracket.below {
+        // The shift `lo` is just below `μ_min`, and the estimate close to its eigenvector.
+        Some((factor, estimate)) => inverse_iteration(&kkt, &factor, estimate, true),
+        None => {
+            let sigma = lo - (hi - lo).max(1e-3 * lo.abs());
+            match kkt.factorize(sigma) {
+                Ok(factor) => {
+                    report.factorizations += 1;
+                    inverse_iteration(&kkt, &factor, kkt.start_vector(), false)
+                }
+                Err(_) => None,
+            }
         }
+    };
+    if let Some((v, q)) = weakest {
+        report.weakest_direction = Some(v);
+        report.weakest_rayleigh = Some(q);
     }
     Ok(report)
 }
 
-/// Inverse iteration for the eigenvector of `μ_min` with a shift `σ` just below it:
-/// `K(σ) [v⁺; y] = [M v; 0]` keeps `v⁺` in `null(A)` and amplifies the eigenvalue nearest `σ`.
-/// Returns the `M`-normalized vector and its Rayleigh quotient (`None` if the solve fails).
-fn weakest(kkt: &ShiftedKkt, sigma: f64) -> Result<Option<(Vec<f64>, f64)>, SecondOrderError> {
-    let Ok(factor) = kkt.factorize(sigma) else {
-        return Ok(None);
-    };
-    let (nv, nc) = (kkt.n_var, kkt.n_con);
-    let m_norm = |v: &[f64]| -> f64 {
-        v.iter()
-            .zip(&kkt.metric)
-            .map(|(x, d)| d * x * x)
-            .sum::<f64>()
-            .sqrt()
-    };
-    // A deterministic start with every component excited.
-    let mut v: Vec<f64> = (0..nv)
-        .map(|i| 1.0 + 0.5 * ((i * 7919) % 13) as f64 / 13.0)
-        .collect();
-    for _ in 0..12 {
-        let mut rhs: Vec<f64> = v.iter().zip(&kkt.metric).map(|(x, d)| d * x).collect();
-        rhs.resize(nv + nc, 0.0);
-        if factor.solve_in_place(&mut rhs).is_err() || !rhs.iter().all(|x| x.is_finite()) {
-            return Ok(None);
-        }
-        rhs.truncate(nv);
-        let n = m_norm(&rhs);
+/// Inverse iteration for the eigenvector of `μ_min` with a factorization of `K(σ)`, `σ` just
+/// below `μ_min`: `K(σ) [v⁺; y] = [M v; 0]` keeps `v⁺` in `null(A)` and amplifies the
+/// eigenvalue nearest `σ`. Twelve iterations from `start`, or (`converge`) fewer once the
+/// Rayleigh quotient settles (for a start that is already an estimate of the eigenvector).
+/// Returns the `M`-normalized vector, signed to have a positive `M`-product with
+/// [`ShiftedKkt::start_vector`], and its Rayleigh quotient (`None` if a solve fails).
+fn inverse_iteration(
+    kkt: &ShiftedKkt,
+    factor: &LbltFactor,
+    start: Vec<f64>,
+    converge: bool,
+) -> Option<(Vec<f64>, f64)> {
+    let mut v = start;
+    let mut last = f64::NAN;
+    for it in 0..12 {
+        v = kkt.apply_inverse(factor, &v, false)?;
+        let n = kkt.m_dot(&v, &v).sqrt();
         if n.is_nan() || n <= 0.0 {
-            return Ok(None);
+            return None;
         }
-        v = rhs.into_iter().map(|x| x / n).collect();
-    }
-    // Rayleigh quotient vᵀHv (vᵀMv = 1).
-    let q: f64 = kkt
-        .hessian
-        .iter()
-        .map(|&(r, c, x)| {
-            if r == c {
-                x * v[r] * v[r]
-            } else {
-                2.0 * x * v[r] * v[c]
+        v.iter_mut().for_each(|x| *x /= n);
+        if converge {
+            let q = kkt.rayleigh(&v);
+            if it >= 1 && (q - last).abs() <= 1e-12 * q.abs() {
+                break;
             }
-        })
-        .sum();
-    Ok(Some((v, q)))
+            last = q;
+        }
+    }
+    if kkt.m_dot(&v, &kkt.start_vector()) < 0.0 {
+        v.iter_mut().for_each(|x| *x = -*x);
+    }
+    let q = kkt.rayleigh(&v);
+    Some((v, q))
 }
 
-/// Brackets `μ_min`: first a geometric search for a bracket `[lo, hi]` with no eigenvalue
-/// below `lo` and at least one below `hi` (one end is 0, where the count is known), then
-/// bisection to the relative width `margin_rtol`. `None` when the budget runs out.
+/// A bracket `[lo, hi]` of `μ_min` (no eigenvalue below `lo`, at least one below `hi`).
+struct Bracket {
+    lo: f64,
+    hi: f64,
+    /// When the bracket comes from an estimate (see [`margin`]): the factorization at `lo`,
+    /// just below `μ_min`, and the estimate of the eigenvector, for [`inverse_iteration`].
+    below: Option<(LbltFactor, Vec<f64>)>,
+}
+
+/// The first probe of the bracket searches, away from simple numbers (see [`margin`]).
+const FIRST_PROBE: f64 = 0.7123;
+
+/// Brackets `μ_min` to the relative width `margin_rtol` (`None` when the budget runs out).
+///
+/// 1. A shift `σ₀` with no eigenvalue below it, and its factorization: `σ₀ = 0` at a certified
+///    point (the factorization of the verdict), otherwise a geometric search downwards.
+/// 2. An estimate `μ̂` of `μ_min` by the Lanczos method on the shift-inverted pencil with that
+///    factorization ([`lanczos`]: solves only): the eigenvalues `1/(μ − σ₀) > 0` of
+///    `v ↦ K(σ₀)⁻¹[M v; 0]` (restricted to `v`), self-adjoint in the `M` inner product on
+///    `null(A)`, the largest being `1/(μ_min − σ₀)`.
+/// 3. The bracket `[μ̂ − h, μ̂ + h]`, `h = 0.45 · margin_rtol · |μ̂|`, confirmed by the inertia
+///    of two factorizations: no eigenvalue below `μ̂ − h`, at least one below `μ̂ + h`. The
+///    claim rests on these counts (Sylvester's law), not on the estimate.
+/// 4. If the estimate is not confirmed (or not available), bisection from what is known: a
+///    geometric search for an upper end (first probe `0.7123`, then ×4) and bisection to the
+///    relative width `margin_rtol`.
 ///
 /// A shift that lands on an eigenvalue (a zero pivot, or a breakdown of the factorization:
-/// `K(σ)` is singular there) is moved by a relative `1e-7`. Such coincidences are not rare:
-/// for a cost `|u|²/2` the metric `M` equals the control block of `H`, so `σ = 1` can be an
-/// eigenvalue of high multiplicity.
+/// `K(σ)` is singular there) is moved by a relative `1e-7`, and the bracket keeps the shift
+/// actually used. Such coincidences are not rare: for a cost `|u|²/2` the metric `M` equals
+/// the control block of `H`, so `σ = 1` can be an eigenvalue of high multiplicity.
 fn margin(
     kkt: &ShiftedKkt,
+    factor0: LbltFactor,
     positive: bool,
     opts: &SecondOrderOptions,
     used: &mut usize,
-) -> Result<Option<(f64, f64)>, SecondOrderError> {
-    // The number of eigenvalues below σ, trying σ and two nearby shifts.
-    let count = |sigma: f64, used: &mut usize| -> Result<Option<usize>, SecondOrderError> {
+) -> Result<Option<Bracket>, SecondOrderError> {
+    // The number of eigenvalues below σ, trying σ and two nearby shifts: (shift used, count,
+    // factorization).
+    let count = |sigma: f64,
+                 used: &mut usize|
+     -> Result<Option<(f64, usize, LbltFactor)>, SecondOrderError> {
         for s in [
             sigma,
             sigma * (1.0 + 1e-7) + 1e-12,
             sigma * (1.0 - 1e-7) - 1e-12,
         ] {
             *used += 1;
-            match kkt.count_below(s) {
-                Ok(Some(c)) => return Ok(Some(c)),
-                Ok(None) | Err(SecondOrderError::Factorization(InertiaError::Breakdown { .. })) => {
+            match kkt.factorize(s) {
+                Ok(factor) => {
+                    if let Some(c) = kkt.excess(factor.inertia())? {
+                        return Ok(Some((s, c, factor)));
+                    }
                 }
-                Err(e) => return Err(e),
+                Err(InertiaError::Breakdown { .. }) => {}
+                Err(e) => return Err(e.into()),
             }
         }
         Ok(None)
     };
-    // The first probe is away from simple numbers (see above).
-    const FIRST: f64 = 0.7123;
-    let (mut lo, mut hi);
-    if positive {
-        lo = 0.0;
-        hi = FIRST;
+    let out_of_budget = |used: usize| used >= opts.max_factorizations;
+    // 1. No eigenvalue below `lo`; at least one below `hi` when known.
+    let (mut lo, mut hi, base) = if positive {
+        (0.0, None, factor0)
+    } else {
+        drop(factor0);
+        let mut hi = 0.0;
+        let mut probe = -FIRST_PROBE;
         loop {
-            if *used >= opts.max_factorizations {
+            if out_of_budget(*used) {
                 return Ok(None);
             }
-            match count(hi, used)? {
+            match count(probe, used)? {
                 None => return Ok(None),
-                Some(0) => {
-                    lo = hi;
-                    hi *= 4.0;
+                Some((s, 0, factor)) => break (s, Some(hi), factor),
+                Some((s, _, _)) => {
+                    hi = s;
+                    probe = 4.0 * s;
                 }
-                Some(_) => break,
             }
         }
-    } else {
-        hi = 0.0;
-        lo = -FIRST;
-        loop {
-            if *used >= opts.max_factorizations {
-                return Ok(None);
-            }
-            match count(lo, used)? {
-                None => return Ok(None),
-                Some(0) => break,
-                Some(_) => {
-                    hi = lo;
-                    lo *= 4.0;
+    };
+    // 2.–3. Estimate, and confirm.
+    if let Some((mu, vector)) = lanczos(kkt, &base, lo, opts.margin_rtol) {
+        drop(base);
+        let h = 0.45 * opts.margin_rtol * mu.abs();
+        if mu - h > lo && *used + 2 <= opts.max_factorizations {
+            match count(mu - h, used)? {
+                Some((s_lo, 0, factor)) => {
+                    lo = s_lo;
+                    match count(mu + h, used)? {
+                        Some((s_hi, c, _)) if c > 0 => {
+                            hi = Some(s_hi);
+                            if s_hi - s_lo <= opts.margin_rtol * s_lo.abs().max(s_hi.abs()) {
+                                return Ok(Some(Bracket {
+                                    lo: s_lo,
+                                    hi: s_hi,
+                                    below: Some((factor, vector)),
+                                }));
+                            }
+                        }
+                        Some((s_hi, _, _)) => lo = s_hi,
+                        None => {}
+                    }
                 }
+                Some((s_lo, _, _)) => hi = Some(s_lo),
+                None => {}
             }
         }
     }
+    // 4. Bisection.
+    let mut hi = match hi {
+        Some(hi) => hi,
+        None => {
+            let mut probe = if lo > 0.0 { 4.0 * lo } else { FIRST_PROBE };
+            loop {
+                if out_of_budget(*used) {
+                    return Ok(None);
+                }
+                match count(probe, used)? {
+                    None => return Ok(None),
+                    Some((s, 0, _)) => {
+                        lo = s;
+                        probe = 4.0 * s;
+                    }
+                    Some((s, _, _)) => break s,
+                }
+            }
+        }
+    };
     while hi - lo > opts.margin_rtol * lo.abs().max(hi.abs()) {
-        if *used >= opts.max_factorizations {
+        if out_of_budget(*used) {
             return Ok(None);
         }
         let mid = 0.5 * (lo + hi);
         match count(mid, used)? {
             None => return Ok(None),
-            Some(0) => lo = mid,
-            Some(_) => hi = mid,
+            Some((s, 0, _)) => lo = s,
+            Some((s, _, _)) => hi = s,
         }
     }
-    Ok(Some((lo, hi)))
+    Ok(Some(Bracket {
+        lo,
+        hi,
+        below: None,
+    }))
+}
+
+/// Most Lanczos steps of [`lanczos`].
+const LANCZOS_MAX_STEPS: usize = 60;
+
+/// The Lanczos method with a factorization of `K(σ)` that has no eigenvalue of the pencil
+/// below `σ`: an estimate `(μ̂, v̂)` of `μ_min` and its eigenvector (`M`-normalized, in
+/// `null(A)`), converged to a small fraction of the bracket width `margin_rtol · |μ̂|` (by the
+/// residual bound of the Ritz value), or `None` (no convergence in [`LANCZOS_MAX_STEPS`]
+/// steps, or a failed solve). An estimate only: the caller confirms it by inertia counts.
+///
+/// The operator `S v = K(σ)⁻¹[M v; 0]` (the unknowns of the solution) is self-adjoint in the
+/// `M` inner product, with eigenvalues `1/(μ − σ) > 0` on `null(A)`, the largest
+/// `1/(μ_min − σ)`. `S v` depends on `v` only through the components where `M > 0` (the
+/// controls, the free initial data, `T`), so the iteration runs on those: `T c = (S c)|_M`,
+/// self-adjoint for the positive definite `diag(M)|_M`, with the same nonzero eigenvalues.
+/// (Run on all the unknowns, `M` is only semidefinite and the rounding errors outside
+/// `null(A)`, which it does not see, grow at every step.) The Ritz vector `x` is lifted to
+/// `S x / θ`, exactly in `null(A)`, from the solves already done.
+fn lanczos(
+    kkt: &ShiftedKkt,
+    factor: &LbltFactor,
+    sigma: f64,
+    margin_rtol: f64,
+) -> Option<(f64, Vec<f64>)> {
+    let visible: Vec<usize> = (0..kkt.n_var).filter(|&i| kkt.metric[i] > 0.0).collect();
+    let weight: Vec<f64> = visible.iter().map(|&i| kkt.metric[i]).collect();
+    let dot = |a: &[f64], b: &[f64]| -> f64 {
+        a.iter()
+            .zip(b)
+            .zip(&weight)
+            .map(|((x, y), d)| d * x * y)
+            .sum()
+    };
+    let embed = |c: &[f64]| -> Vec<f64> {
+        let mut v = vec![0.0; kkt.n_var];
+        for (&i, x) in visible.iter().zip(c) {
+            v[i] = *x;
+        }
+        v
+    };
+    let restrict = |v: &[f64]| -> Vec<f64> { visible.iter().map(|&i| v[i]).collect() };
+    let steps = LANCZOS_MAX_STEPS.min(visible.len());
+    // The first vector: one inverse iteration from the deterministic start.
+    let mut q = restrict(&kkt.apply_inverse(factor, &kkt.start_vector(), true)?);
+    let norm = dot(&q, &q).sqrt();
+    if !(norm > 0.0 && norm.is_finite()) {
+        return None;
+    }
+    q.iter_mut().for_each(|x| *x /= norm);
+    let mut basis = vec![q];
+    // S applied to each basis vector (all the unknowns).
+    let mut images: Vec<Vec<f64>> = Vec::new();
+    let (mut alpha, mut beta): (Vec<f64>, Vec<f64>) = (Vec::new(), Vec::new());
+    for j in 0..steps {
+        let image = kkt.apply_inverse(factor, &embed(&basis[j]), true)?;
+        let mut w = restrict(&image);
+        images.push(image);
+        alpha.push(dot(&w, &basis[j]));
+        for _ in 0..2 {
+            for qi in &basis {
+                let c = dot(&w, qi);
+                w.iter_mut().zip(qi).for_each(|(x, y)| *x -= c * y);
+            }
+        }
+        let b = dot(&w, &w).sqrt();
+        // The largest Ritz value of the tridiagonal matrix, and its residual bound.
+        let k = alpha.len();
+        let mut t = nalgebra::DMatrix::<f64>::zeros(k, k);
+        for i in 0..k {
+            t[(i, i)] = alpha[i];
+            if i + 1 < k {
+                t[(i, i + 1)] = beta[i];
+                t[(i + 1, i)] = beta[i];
+            }
+        }
+        let eig = t.symmetric_eigen();
+        let (top, &theta) = eig
+            .eigenvalues
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.total_cmp(b.1))?;
+        let s = eig.eigenvectors.column(top);
+        // (A NaN `b` counts as a breakdown.)
+        let invariant = b.is_nan() || b <= 1e-13 * theta.abs();
+        if theta > 0.0 && theta.is_finite() {
+            let mu = sigma + 1.0 / theta;
+            // |θ − θ_true| ≤ b |s_k| for an eigenvalue θ_true; dμ = dθ / θ².
+            let err = b * s[k - 1].abs() / (theta * theta);
+            if invariant || err <= 0.02 * margin_rtol * mu.abs() {
+                // S x / θ for the Ritz vector x = Σ s_i q_i.
+                let mut v = vec![0.0; kkt.n_var];
+                for (image, si) in images.iter().zip(s.iter()) {
+                    v.iter_mut().zip(image).for_each(|(x, y)| *x += si * y);
+                }
+                let n = kkt.m_dot(&v, &v).sqrt();
+                if !(n > 0.0 && n.is_finite()) {
+                    return None;
+                }
+                v.iter_mut().for_each(|x| *x /= n);
+                return Some((mu, v));
+            }
+        }
+        if invariant || !b.is_finite() {
+            return None;
+        }
+        w.iter_mut().for_each(|x| *x /= b);
+        beta.push(b);
+        basis.push(w);
+    }
+    None
 }
 
 /// Everything [`certify`] establishes about a candidate solution.
@@ -435,7 +663,7 @@ pub fn certify<P: OcpProblem + ?Sized>(
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
     let second_order = second_order(tr, &matrix, &point, opts)?;
-    let conjugate = first_conjugate_point(tr, &point)?;
+    let conjugate = first_conjugate_point(tr, &matrix, &point)?;
     Ok(Certificate {
         candidate,
         newton_iterations: newton.residuals.len() - 1,

@@ -12,15 +12,16 @@
 //! lowers the cost.
 //!
 //! The excess grows with `j` (more variations), so a bisection over the nodes finds the first
-//! one with `⌈log₂ N⌉ + 1` factorizations. A certified minimum has no conjugate point (its
+//! one with `⌈log₂ N⌉ + 1` factorizations. Each is a factorization of the full KKT pattern
+//! (analysed once, [`KktMatrix`]) with the rows and columns outside `K_j` set to zero, which
+//! the factorization deflates and counts as zero eigenvalues (as many as were removed). A certified minimum has no conjugate point (its
 //! variations include all of these); a point that is not a minimum may have one (the oscillator
 //! `ẋ = u`, `L = (u² − x²)/2` has it at `t = π`) or not (when negative curvature needs the
 //! free end data, `δx(b)` or `δT`). Zero eigenvalues of `K_j` are attributed to dependent
 //! constraints, not to curvature (see `excess_at`): the test reports strict negative curvature.
 
 use super::certify::SecondOrderError;
-use super::inertia::{LbltFactor, SymmetricPattern};
-use super::kkt::KktPoint;
+use super::kkt::{KktMatrix, KktPoint};
 use super::problem::OcpProblem;
 use super::transcription::Transcription;
 
@@ -44,12 +45,12 @@ pub struct ConjugateReport {
     pub factorizations: usize,
 }
 
-/// The restricted KKT matrix `K_j` (see the module docs) and its excess of negative
-/// eigenvalues over the constraints.
+/// The restricted KKT matrix `K_j` (see the module docs), as the full matrix with the other
+/// rows and columns zeroed, and its excess of negative eigenvalues over the constraints.
 fn excess_at<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
-    entries: &[(usize, usize, f64)],
-    groups: &[Vec<usize>],
+    kkt: &KktMatrix,
+    values: &[f64],
     j: usize,
 ) -> Result<Option<usize>, SecondOrderError> {
     let (n, nz, nv) = (tr.n_state(), tr.nz(), tr.n_var());
@@ -58,58 +59,39 @@ fn excess_at<P: OcpProblem + ?Sized>(
     // Kept: unknowns of the points 0..3j, constraints of the intervals 0..j, start rows.
     let kept_var = 3 * j * nz;
     let kept_con = 3 * j * n;
-    let new_index = |i: usize| -> Option<usize> {
-        if i < kept_var {
-            Some(i)
-        } else if i >= nv && i < nv + kept_con {
-            Some(kept_var + (i - nv))
-        } else if i >= nv + stage_rows && i < nv + stage_rows + n_start {
-            Some(kept_var + kept_con + (i - nv - stage_rows))
-        } else {
-            None
-        }
+    let kept = |i: usize| -> bool {
+        i < kept_var
+            || (i >= nv && i < nv + kept_con)
+            || (i >= nv + stage_rows && i < nv + stage_rows + n_start)
     };
-    let size = kept_var + kept_con + n_start;
-    let mut pattern = Vec::new();
-    let mut values = Vec::new();
-    for &(r, c, v) in entries {
-        if let (Some(r), Some(c)) = (new_index(r), new_index(c)) {
-            pattern.push((r, c));
-            values.push(v);
-        }
-    }
-    let sub_groups: Vec<Vec<usize>> = groups
-        .iter()
-        .map(|g| g.iter().filter_map(|&i| new_index(i)).collect::<Vec<_>>())
-        .filter(|g| !g.is_empty())
-        .collect();
-    let pattern = SymmetricPattern::with_groups(size, &pattern, &sub_groups)?;
-    let inertia = LbltFactor::factorize(&pattern, &values)?.inertia();
+    let removed = kkt.n_var() + kkt.n_con() - (kept_var + kept_con + n_start);
+    let inertia = kkt
+        .factorize(&kkt.principal_values(values, kept))?
+        .inertia();
     // Zero eigenvalues are counted with the constraints: fixing the whole state at `t_j` can
     // make the constraints dependent (a conserved quantity of the dynamics, such as Suslov's
     // ⟨Ω, ξ⟩, is fixed at `t_j` by the start data already), which shows as zero eigenvalues,
-    // not as curvature.
-    Ok((inertia.negative + inertia.zero).checked_sub(kept_con + n_start))
+    // not as curvature. The removed rows are exactly zero: `removed` zero eigenvalues.
+    Ok((inertia.negative + inertia.zero)
+        .checked_sub(removed)
+        .and_then(|k| k.checked_sub(kept_con + n_start)))
 }
 
 /// The first discrete conjugate point of the KKT point `pt` (see the module docs).
 pub fn first_conjugate_point<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
     pt: &KktPoint,
 ) -> Result<ConjugateReport, SecondOrderError> {
-    let nv = tr.n_var();
-    let mut entries: Vec<(usize, usize, f64)> = (0..nv).map(|i| (i, i, 0.0)).collect();
-    entries.extend(tr.lagrangian_hessian(&pt.v, &pt.y));
-    entries.extend(
-        tr.jacobian(&pt.v)
-            .into_iter()
-            .map(|(r, c, v)| (nv + r, c, v)),
+    let values = kkt.values(
+        &vec![0.0; tr.n_var()],
+        &tr.lagrangian_hessian(&pt.v, &pt.y),
+        &tr.jacobian(&pt.v),
     );
-    let groups = tr.kkt_pivot_groups();
     let mut factorizations = 0;
     let conjugate = |j: usize, count: &mut usize| -> Result<bool, SecondOrderError> {
         *count += 1;
-        Ok(excess_at(tr, &entries, &groups, j)?.is_some_and(|e| e > 0))
+        Ok(excess_at(tr, kkt, &values, j)?.is_some_and(|e| e > 0))
     };
     let last = tr.n_intervals();
     if !conjugate(last, &mut factorizations)? {

@@ -100,6 +100,8 @@ fn norm_inf(x: &[f64]) -> f64 {
 /// factorized by a pivoted `L B Lᵀ` ([`super::inertia`]) for every solve and inertia count.
 pub struct KktMatrix {
     pattern: SymmetricPattern,
+    /// The `(row, column)` of each value, in the order of [`KktMatrix::values`].
+    entries: Vec<(usize, usize)>,
     n_var: usize,
     n_con: usize,
 }
@@ -120,6 +122,7 @@ impl KktMatrix {
         let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
         Ok(Self {
             pattern,
+            entries,
             n_var: nv,
             n_con: nc,
         })
@@ -134,6 +137,18 @@ impl KktMatrix {
         values.extend(h.iter().map(|e| e.2));
         values.extend(a.iter().map(|e| e.2));
         values
+    }
+
+    /// `values` with every entry in a row or column outside `kept` set to zero: the principal
+    /// submatrix on `kept`, bordered by exactly zero rows (which a factorization deflates and
+    /// counts as zero eigenvalues: `inertia = inertia(submatrix) + (0, 0, #removed)`), on the
+    /// same analysed pattern.
+    pub fn principal_values(&self, values: &[f64], kept: impl Fn(usize) -> bool) -> Vec<f64> {
+        values
+            .iter()
+            .zip(&self.entries)
+            .map(|(&v, &(r, c))| if kept(r) && kept(c) { v } else { 0.0 })
+            .collect()
     }
 
     /// A factorization of the matrix with `values`.
@@ -233,7 +248,17 @@ pub fn newton<P: OcpProblem + ?Sized>(
     let mut residuals = Vec::new();
     let mut it = 0;
     loop {
-        let res = residual(tr, &pt);
+        // The residual as [`residual`] computes it, its pieces kept for the step.
+        let a = tr.jacobian(&pt.v);
+        let mut stationarity = tr.gradient(&pt.v);
+        let gradient_scale = norm_inf(&stationarity);
+        add_transpose_product(&a, &pt.y, &mut stationarity);
+        let constraints = tr.constraints(&pt.v);
+        let res = KktResidual {
+            stationarity: norm_inf(&stationarity),
+            gradient_scale,
+            feasibility: norm_inf(&constraints),
+        };
         residuals.push(res);
         if res.relative_stationarity() <= opts.tolerance && res.feasibility <= opts.tolerance {
             return Ok((pt, NewtonReport { residuals }));
@@ -246,10 +271,8 @@ pub fn newton<P: OcpProblem + ?Sized>(
                 feasibility: res.feasibility,
             });
         }
-        let a = tr.jacobian(&pt.v);
-        let mut rhs = tr.gradient(&pt.v);
-        add_transpose_product(&a, &pt.y, &mut rhs);
-        rhs.extend(tr.constraints(&pt.v));
+        let mut rhs = stationarity;
+        rhs.extend(constraints);
         rhs.iter_mut().for_each(|r| *r = -*r);
         let values = kkt.values(&zeros, &tr.lagrangian_hessian(&pt.v, &pt.y), &a);
         solve_kkt(kkt, &values, &mut rhs, "Newton step")?;

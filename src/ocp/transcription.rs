@@ -463,9 +463,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
 
     /// Pivot groups of the KKT matrix `[[H, Aᵀ], [A, 0]]` (unknowns `0..n_var`, then
     /// constraints), in elimination order, for [`super::inertia::SymmetricPattern::with_groups`]:
-    /// first `z_0` with the start conditions; then, interval by interval, the unknowns of
-    /// its three new points with its `3n` collocation constraints; last `T` and the end
-    /// conditions. Each interval's group is itself a small KKT matrix whose constraint block
+    /// first `z_0` with the start conditions; then, interval by interval, its `3n`
+    /// collocation constraints with the unknowns of its three new points; last `T` and the
+    /// end conditions. The constraints come first in their group because they are all that an
+    /// earlier group touches (through the interval's first point, `z_{3k}`), and `T` first
+    /// in the last: the factor of a group then reaches into the next one only by its
+    /// constraints (see [`super::inertia::SymmetricPattern::with_groups`]). Each interval's group is itself a small KKT matrix whose constraint block
     /// `∂c_k/∂x_k ≈ I` has full rank, so Bunch–Kaufman inside the group always finds good
     /// `1 × 1` or `2 × 2` pivots (a state with the constraint that determines it), the fill
     /// stays banded, and the factorization runs forward in time like a null-space method:
@@ -479,8 +482,8 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         first.extend(start_rows..start_rows + self.n_start_rows());
         groups.push(first);
         for k in 0..n_int {
-            let mut g: Vec<usize> = ((3 * k + 1) * nz..(3 * k + 4) * nz).collect();
-            g.extend(nv + 3 * k * n..nv + 3 * (k + 1) * n);
+            let mut g: Vec<usize> = (nv + 3 * k * n..nv + 3 * (k + 1) * n).collect();
+            g.extend((3 * k + 1) * nz..(3 * k + 4) * nz);
             groups.push(g);
         }
         let mut last: Vec<usize> = self.length_index().into_iter().collect();
