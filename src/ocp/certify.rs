@@ -608,7 +608,8 @@ pub struct Certificate {
     /// The second-order test at that point.
     pub second_order: SecondOrderReport,
     /// Where the second variation first loses positivity among variations with fixed ends
-    /// (the discrete conjugate point; [`super::conjugate`]).
+    /// (the discrete conjugate point; [`super::conjugate`]). At a certified point, none, from
+    /// the certificate's inertia (then with no factorization of its own).
     pub conjugate: ConjugateReport,
 }
 
@@ -663,7 +664,20 @@ pub fn certify<P: OcpProblem + ?Sized>(
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
     let second_order = second_order(tr, &matrix, &point, opts)?;
-    let conjugate = first_conjugate_point(tr, &matrix, &point)?;
+    // At a certified point there is no conjugate point, by the inertia of the certificate's
+    // factorization (see `super::conjugate`): no factorization of the restricted matrices.
+    // (Not with linear start conditions, which the restricted matrices leave out: their
+    // variations are not all admissible for the full problem.)
+    let implied =
+        second_order.verdict == Verdict::Certified && tr.boundary().start_linear.is_empty();
+    let conjugate = if implied {
+        ConjugateReport {
+            first: None,
+            factorizations: 0,
+        }
+    } else {
+        first_conjugate_point(tr, &matrix, &point)?
+    };
     Ok(Certificate {
         candidate,
         newton_iterations: newton.residuals.len() - 1,

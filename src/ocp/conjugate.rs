@@ -14,11 +14,23 @@
 //! The excess grows with `j` (more variations), so a bisection over the nodes finds the first
 //! one with `⌈log₂ N⌉ + 1` factorizations. Each is a factorization of the full KKT pattern
 //! (analysed once, [`KktMatrix`]) with the rows and columns outside `K_j` set to zero, which
-//! the factorization deflates and counts as zero eigenvalues (as many as were removed). A certified minimum has no conjugate point (its
-//! variations include all of these); a point that is not a minimum may have one (the oscillator
-//! `ẋ = u`, `L = (u² − x²)/2` has it at `t = π`) or not (when negative curvature needs the
-//! free end data, `δx(b)` or `δT`). Zero eigenvalues of `K_j` are attributed to dependent
-//! constraints, not to curvature (see `excess_at`): the test reports strict negative curvature.
+//! the factorization deflates and counts as zero eigenvalues (as many as were removed).
+//!
+//! A certified minimum has no conjugate point: its variations include all of these. Precisely,
+//! for `A_j` of rank `r` and `Z_j` a basis of its null space,
+//! `inertia(K_j) = inertia(Z_jᵀ H_j Z_j) + (r, r, m_j − r)`, so the excess (negative and zero
+//! eigenvalues beyond `m_j`) counts the nonpositive eigenvalues of `Z_jᵀ H_j Z_j`; the
+//! variations in `null(A_j)`, extended by zero, lie in `null(A)`, where `H` is positive
+//! definite when the KKT matrix has the inertia `(n, m, 0)`. So [`super::certify::certify`]
+//! calls [`first_conjugate_point`] only for points that are not certified: at a certified point
+//! the answer "none" follows from the inertia of the certificate's own factorization. The
+//! exception is a problem with linear start conditions ([`super::problem::Boundary`]):
+//! `K_j` keeps the prescribed start components but not those conditions, so its variations
+//! need not satisfy them, and the search runs.
+//! A point that is not a minimum may have one (the oscillator `ẋ = u`, `L = (u² − x²)/2` has
+//! it at `t = π`) or not (when negative curvature needs the free end data, `δx(b)` or `δT`).
+//! Zero eigenvalues of `K_j` are attributed to dependent constraints, not to curvature (see
+//! `excess_at`): the test reports strict negative curvature.
 
 use super::certify::SecondOrderError;
 use super::kkt::{KktMatrix, KktPoint};
