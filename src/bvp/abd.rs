@@ -167,13 +167,7 @@ impl BorderedAbd {
         self.col_norm2.fill(0.0);
         for (r, row) in values.chunks_exact(wc).enumerate() {
             let d2 = self.row_scale[r] * self.row_scale[r];
-            // Columns of this row: y_i, y_{i+1} (interval i) or y_0, y_N (boundary rows), p.
-            let (first, second) = if r < nn * n {
-                let i = r / n;
-                (i * n, (i + 1) * n)
-            } else {
-                (0, nn * n)
-            };
+            let (first, second) = row_nodes(r, n, nn);
             for c in 0..n {
                 self.col_norm2[first + c] += row[c] * row[c] * d2;
                 self.col_norm2[second + c] += row[n + c] * row[n + c] * d2;
@@ -444,6 +438,18 @@ impl BorderedAbd {
 /// in one sweep). On return the upper triangle of the first `p` columns is `R`, the
 /// reflectors' vectors (with an implicit leading 1) lie below it, `tau[j]` are their
 /// scalars. Fails if a diagonal entry of `R` is zero or not finite.
+/// The offsets of the two node blocks that row `row` of the matrix touches: `y_i` and
+/// `y_{i+1}` for a row of interval `i`, `y_0` and `y_N` for a boundary row (the `p` columns
+/// come after `y_N` in every row).
+pub(crate) fn row_nodes(row: usize, n: usize, intervals: usize) -> (usize, usize) {
+    if row < intervals * n {
+        let i = row / n;
+        (i * n, (i + 1) * n)
+    } else {
+        (0, intervals * n)
+    }
+}
+
 #[inline(always)]
 fn householder_qr(
     a: &mut [f64],

@@ -20,7 +20,7 @@
 //! Newton loop. The values live in [`global_jacobian_pattern`] order, which is the blocks'
 //! row-major order, so the condensation writes them where the factorisation reads them.
 
-use super::abd::{AbdError, BorderedAbd};
+use super::abd::{row_nodes, AbdError, BorderedAbd};
 
 /// Row/column index pairs of the structurally nonzero entries of the global Jacobian, in
 /// assembly order: for each interval `i`, the rows `i*n .. i*n+n` of `[A_i B_i P_i]`
@@ -119,12 +119,7 @@ impl GlobalSystem {
         let wc = 2 * n + k;
         let po = m * n;
         for (row, vals) in self.values.chunks_exact(wc).enumerate() {
-            let (first, second) = if row < (m - 1) * n {
-                let i = row / n;
-                (i * n, (i + 1) * n)
-            } else {
-                (0, (m - 1) * n)
-            };
+            let (first, second) = row_nodes(row, n, m - 1);
             let acc: f64 = vals[..n]
                 .iter()
                 .zip(&z[first..first + n])
@@ -186,12 +181,7 @@ impl GlobalSystem {
         let mut col_sums = vec![0.0; order];
         let d = self.abd.row_scale();
         for (row, vals) in self.values.chunks_exact(wc).enumerate() {
-            let (first, second) = if row < (m - 1) * n {
-                let i = row / n;
-                (i * n, (i + 1) * n)
-            } else {
-                (0, (m - 1) * n)
-            };
+            let (first, second) = row_nodes(row, n, m - 1);
             for c in 0..n {
                 col_sums[first + c] += vals[c].abs() * d[row];
                 col_sums[second + c] += vals[n + c].abs() * d[row];
