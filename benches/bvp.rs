@@ -8,8 +8,8 @@
 //! 2. Scaling: one Newton solve of a linear problem on fixed uniform meshes of
 //!    N = 1e2, 1e3, 1e4 intervals (n = 2 and n = 12): time per interval should be flat.
 //! 3. One Newton step (residual, Jacobians, condensation, factorisation, correction;
-//!    `bvp::NewtonStep`) on the final meshes of the paper's two cases (n = 12, k = 1), and on
-//!    uniform meshes of N = 1e2 .. 1e4 intervals for the n = 12 oscillators: time per step and
+//!    `bvp::NewtonStep`) on the final meshes of the paper's two cases (n = 12, k = 1) and of
+//!    the so(4) example `examples/so4_body.toml` (n = 24, k = 1), and on uniform meshes of N = 1e2 .. 1e4 intervals for the n = 12 oscillators: time per step and
 //!    per interval.
 
 #[path = "../tests/common/mod.rs"]
@@ -218,6 +218,27 @@ fn bench_newton_step() {
             t * 1e6 / step.intervals() as f64
         );
     }
+    // The so(4) example (n = 24, k = 1) on its final mesh.
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/so4_body.toml");
+    let (loaded, _) = suslov::config::load_any(&path).expect("the so4 example loads");
+    let suslov::config::Loaded::Other(file) = loaded else {
+        panic!("examples/so4_body.toml is not an so4 file")
+    };
+    let built = file
+        .build::<suslov::model::so4::So4>()
+        .expect("the so4 example is valid");
+    let sol = suslov::lie::solve(&built.problem, &built.options, &mut |_| {})
+        .expect("the so4 example solves");
+    let bvp = suslov::lie::LieBvp::new(&sol.problem);
+    let guess = Guess::from_solution(&sol.bvp);
+    let mut step = NewtonStep::new(&bvp, &guess, &opts).expect("valid input");
+    let t = median_step(&mut step, Duration::from_millis(1500));
+    println!(
+        "| so4 example n=24   | {:>6} | {:>10.3} | {:>8.3} |",
+        step.intervals(),
+        t * 1e3,
+        t * 1e6 / step.intervals() as f64
+    );
     for intervals in [100, 1_000, 10_000] {
         let x = uniform(0.0, 1.0, intervals);
         let guess = Guess::from_values(x.clone(), vec![0.0; x.len() * 12], vec![]);
