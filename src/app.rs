@@ -589,7 +589,7 @@ pub(crate) fn prepare_certificate_json(json: Option<&Path>) -> Result<(), AppErr
         // written over one of them would replace that run's result (even while it runs).
         if report::belongs_to_a_run(path) {
             return Err(AppError::InvalidArgument(format!(
-                "--json {}: that file belongs to the `suslov paper`/`solve` run whose output \
+                "--json-file {}: that file belongs to the `suslov paper`/`solve` run whose output \
                  directory it is in; give the JSON another name (or write it elsewhere)",
                 crate::echo::echo(&path.display().to_string()),
             )));
@@ -668,6 +668,7 @@ pub fn run_rank_along(
     use crate::suslov::controllability as c;
     check_rank_arguments(points, rtol)?;
     let mut text = String::new();
+    let mut cases = Vec::new();
     let mut all_accessible = true;
     for job in jobs {
         events(AppEvent::CaseStarted { name: &job.name });
@@ -680,15 +681,24 @@ pub fn run_rank_along(
             Ok(sol) => sol,
             Err(e) => {
                 text += &format!("case {}: the solve failed: {e}\n", job.name);
+                cases.push(serde_json::json!({
+                    "name": job.name,
+                    "model": crate::model::so3::MODEL_NAME,
+                    "solve_error": e.to_string(),
+                }));
                 all_accessible = false;
                 events(AppEvent::CaseEnded { name: &job.name });
                 continue;
             }
         };
-        if let Verdict::Unverified { reason } = crate::lie::verify_solution(&sol.generic)
+        let verdict = crate::lie::verify_solution(&sol.generic)
             .verification
-            .verdict()
-        {
+            .verdict();
+        let unverified = match &verdict {
+            Verdict::Unverified { reason } => Some(reason.clone()),
+            Verdict::Verified => None,
+        };
+        if let Some(reason) = &unverified {
             all_accessible = false;
             text += &format!(
                 "case {}: the solution did not pass its a-posteriori checks ({reason}); the \
@@ -722,11 +732,22 @@ pub fn run_rank_along(
         match c::rank_along(&sol.problem.inertia, &states, rtol) {
             Ok(r) => {
                 all_accessible &= r.min_rank == c::DIM_M && r.max_rank == c::DIM_M;
+                cases.push(serde_json::json!({
+                    "name": job.name,
+                    "model": crate::model::so3::MODEL_NAME,
+                    "unverified": unverified,
+                    "t0": a,
+                    "terminal_time": b,
+                    "dim_m": c::DIM_M,
+                    "max_constraint": violation,
+                    "rank": r,
+                }));
                 text += &format!(
                     "case {}: rank of V {} at all {} times of [{a}, {b:.6}] (dim M = {}){}\n\
                      \x20 smallest significant singular value {:.4e} (t = {:.4}); largest \
                      sigma_(rank+1)/sigma_rank {:.1e}; max |f| {:.4}; the solution's max \
-                     |<Omega, xi>| {:.1e} (xi projected onto Omega^perp for the test)\n",
+                     |<Omega, xi>| {:.1e} at these times (xi projected onto Omega^perp for the \
+                     test)\n",
                     job.name,
                     if r.min_rank == r.max_rank {
                         format!("= {}", r.min_rank)
@@ -750,6 +771,11 @@ pub fn run_rank_along(
             Err(e) => {
                 all_accessible = false;
                 text += &format!("case {}: rank test failed: {e}\n", job.name);
+                cases.push(serde_json::json!({
+                    "name": job.name,
+                    "model": crate::model::so3::MODEL_NAME,
+                    "rank_error": e.to_string(),
+                }));
             }
         }
         events(AppEvent::CaseEnded { name: &job.name });
@@ -757,6 +783,7 @@ pub fn run_rank_along(
     Ok(RankAlong {
         text,
         all_accessible,
+        cases,
     })
 }
 
@@ -765,8 +792,33 @@ pub fn run_rank_along(
 pub struct RankAlong {
     /// The report for people.
     pub text: String,
-    /// Every case solved, passed its a-posteriori checks and had rank 4 at every time tested.
+    /// Every case solved, passed its a-posteriori checks and had rank `dim M` at every time
+    /// tested.
     pub all_accessible: bool,
+    /// The same per case, as data (`suslov controllability --along … --json`): `name`,
+    /// `model`, and either `solve_error`, `rank_error`, or `unverified` (the failed checks, or
+    /// null), `t0`, `terminal_time`, `dim_m`, `max_constraint` (max |⟨Ω, ξ⟩| at the times
+    /// tested) and `rank` (the rank test's record).
+    pub cases: Vec<serde_json::Value>,
+}
+
+impl RankAlong {
+    /// `{"all_accessible": …, "cases": […]}`.
+    pub fn to_json(&self) -> serde_json::Value {
+        serde_json::json!({ "all_accessible": self.all_accessible, "cases": self.cases })
+    }
+}
+
+/// What `suslov controllability` found at given states ([`run_rank_at_states`]).
+#[derive(Debug, Clone)]
+pub struct RankTable {
+    /// The table for people.
+    pub text: String,
+    /// What the rows show.
+    pub verdict: crate::suslov::controllability::AccessibilityVerdict,
+    /// The same as data (`--json`): `model`, `rtol`, `dim_m`, `states` (one record per state
+    /// tested) and `verdict`.
+    pub json: serde_json::Value,
 }
 
 /// Arguments of `suslov controllability` at given states (not `--along`).
@@ -797,9 +849,7 @@ pub struct RankAtStates<'a> {
 /// table), the other models through the generic layer ([`lie::run_model_rank_at_states`]).
 /// Every argument is checked (named in the error) before any work; returns the table and its
 /// verdict.
-pub fn run_rank_at_states(
-    a: &RankAtStates,
-) -> Result<(String, crate::suslov::controllability::AccessibilityVerdict), AppError> {
+pub fn run_rank_at_states(a: &RankAtStates) -> Result<RankTable, AppError> {
     use crate::model::{with_model, MODEL_NAMES};
     if a.model == crate::model::so3::MODEL_NAME {
         return run_so3_rank_at_states(a);
@@ -814,9 +864,7 @@ pub fn run_rank_at_states(
 }
 
 /// [`run_rank_at_states`] for so3: `--inertia` as `I1,I2,I3` (or named), no `--constraint`.
-fn run_so3_rank_at_states(
-    a: &RankAtStates,
-) -> Result<(String, crate::suslov::controllability::AccessibilityVerdict), AppError> {
+fn run_so3_rank_at_states(a: &RankAtStates) -> Result<RankTable, AppError> {
     use crate::suslov::controllability as c;
     use crate::suslov::Inertia;
     let arg = |flag: &str, e: crate::suslov::SuslovError| {
@@ -882,5 +930,31 @@ fn run_so3_rank_at_states(
                 .map_err(|e| arg("--omega-a with --inertia", e))?
         }
     };
-    c::report_table(&inertia, &states, a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))
+    let (text, verdict, rows) = c::report_table_rows(&inertia, &states, a.rtol)
+        .map_err(|e| AppError::InvalidArgument(e.to_string()))?;
+    let states: Vec<serde_json::Value> = rows
+        .iter()
+        .zip(&states)
+        .map(|((r, on_m), (om, xi))| {
+            serde_json::json!({
+                "omega": om.as_slice(),
+                "xi": xi.as_slice(),
+                "on_m": on_m,
+                "test": r,
+            })
+        })
+        .collect();
+    let json = serde_json::json!({
+        "model": crate::model::so3::MODEL_NAME,
+        "inertia": inertia.diag().as_slice(),
+        "rtol": a.rtol,
+        "dim_m": c::DIM_M,
+        "states": states,
+        "verdict": verdict,
+    });
+    Ok(RankTable {
+        text,
+        verdict,
+        json,
+    })
 }

@@ -20,6 +20,7 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use suslov::app::{self, AppEvent};
+use suslov::report::significant;
 use suslov::suslov::controllability::AccessibilityVerdict;
 use suslov::suslov::solve::Event;
 
@@ -36,6 +37,11 @@ struct Cli {
     /// Print every continuation step, Newton step and mesh pass (also on a terminal).
     #[arg(short, long, global = true)]
     verbose: bool,
+    /// Print the results on standard output as JSON instead of text: `summary.json`'s content
+    /// for `paper` and `solve`, the certificate reports for `certify`, the rank test's results
+    /// for `controllability`. Progress and logs stay on standard error.
+    #[arg(long, global = true)]
+    json: bool,
     #[command(subcommand)]
     command: Command,
 }
@@ -55,9 +61,9 @@ enum Command {
     Solve {
         /// The problem file (TOML).
         config: PathBuf,
-        /// Output directory (created if missing).
+        /// Output directory (created if missing) [default: out/<the problem file's stem>].
         #[arg(long)]
-        out: PathBuf,
+        out: Option<PathBuf>,
     },
     /// Accessibility rank test of Suslov's pure equations (paper section 4.3) for any model
     /// (--model): rank of V = [g_1 .. g_n, [g_i, g_j]] and its singular values at one state
@@ -73,9 +79,10 @@ enum Command {
     Certify {
         /// A problem file (TOML, as for `solve`); without it, the paper's two cases.
         config: Option<PathBuf>,
-        /// Also write the reports as JSON to this file.
+        /// Also write the reports as JSON to this file (`--json` prints them on standard
+        /// output instead of the text).
         #[arg(long)]
-        json: Option<PathBuf>,
+        json_file: Option<PathBuf>,
         /// Final BVP tolerance of the solves (the mesh the certificate runs on); default:
         /// the problem's (1e-8 for the paper).
         #[arg(long, allow_hyphen_values = true)]
@@ -156,6 +163,21 @@ macro_rules! say {
     }};
 }
 
+/// A JSON value on standard output, pretty-printed (non-finite numbers, which JSON lacks, are
+/// `null`: `serde_json` writes them so).
+fn print_json(value: &serde_json::Value) {
+    match serde_json::to_string_pretty(value) {
+        Ok(text) => out_json(&text),
+        Err(e) => say!("error: cannot print the results as JSON: {e}"),
+    }
+}
+
+/// JSON text on standard output, ending in one newline.
+fn out_json(text: &str) {
+    out(text.trim_end());
+    out("\n");
+}
+
 /// Writes to standard output; a closed pipe drops the text (never a panic).
 fn out(text: &str) {
     let mut stdout = std::io::stdout().lock();
@@ -192,15 +214,21 @@ fn install_signal_handlers() {
     });
 }
 
-/// Progress on stderr: a spinner per case on a terminal, log lines otherwise.
+/// Progress and logs on stderr (a bar per case and stage on a terminal, log lines
+/// otherwise); each case's result line on stdout (not with `--json`, which prints the results
+/// as JSON at the end).
 struct Reporter {
     quiet: bool,
     verbose: bool,
+    json: bool,
     bar: Option<ProgressBar>,
     terminal: bool,
+    /// The case being solved (the bar's prefix, with the stage).
+    case: String,
 }
 
 impl Reporter {
+    /// A log line on stderr (not with `--quiet`).
     fn line(&self, text: String) {
         if self.quiet {
             return;
@@ -211,15 +239,28 @@ impl Reporter {
         }
     }
 
+    /// A result line on stdout (not with `--json`: the JSON says it all).
+    fn result(&self, text: String) {
+        if self.json {
+            return;
+        }
+        let print = || out(&format!("{text}\n"));
+        match &self.bar {
+            Some(bar) => bar.suspend(print),
+            None => print(),
+        }
+    }
+
     fn event(&mut self, e: AppEvent) {
         match e {
             AppEvent::CaseStarted { name } => {
+                self.case = name.to_string();
                 if self.terminal && !self.quiet && !self.verbose {
-                    // Per stage: the homotopy parameter from 0 to 100 %.
+                    // Per stage (named in the prefix): the homotopy parameter from 0 to 100 %.
                     let bar = ProgressBar::new(100);
                     bar.set_style(
                         ProgressStyle::with_template(
-                            "{spinner} {prefix} [{bar:20}] {pos:>3}% {wide_msg} [{elapsed}]",
+                            "{spinner} {prefix} [{bar:20}] {pos:>3}% {msg} [{elapsed}]",
                         )
                         .expect("valid template")
                         .progress_chars("=> "),
@@ -235,11 +276,20 @@ impl Reporter {
                 let text = if from == to {
                     format!("  stage {name}")
                 } else {
-                    format!("  stage {name}: {from:.6} -> {to:.6}")
+                    format!(
+                        "  stage {name}: {} -> {}",
+                        significant(*from, 6),
+                        significant(*to, 6)
+                    )
                 };
                 if let Some(bar) = &self.bar {
+                    bar.set_prefix(format!("{} {name}", self.case));
                     bar.set_position(0);
-                    bar.set_message(text.trim().to_string());
+                    bar.set_message(if from == to {
+                        String::new()
+                    } else {
+                        format!("{} -> {}", significant(*from, 4), significant(*to, 4))
+                    });
                 } else if self.verbose {
                     tracing::info!("{}", text.trim());
                 } else {
@@ -248,12 +298,12 @@ impl Reporter {
             }
             AppEvent::Solve(Event::Step { stage, record }) => {
                 let text = format!(
-                    "    {stage} lambda = {:.4}: {} ({} Newton iterations, {} nodes)",
-                    record.lambda,
+                    "    {stage} lambda = {}: {} ({} Newton iterations, {} nodes)",
+                    significant(record.lambda, 4),
                     if record.accepted {
                         "accepted".to_string()
                     } else {
-                        format!("rejected, {:?}", record.status)
+                        format!("rejected: {}", record.status.describe())
                     },
                     record.newton_iterations,
                     record.nodes
@@ -262,7 +312,8 @@ impl Reporter {
                     if record.accepted {
                         bar.set_position((record.lambda.clamp(0.0, 1.0) * 100.0).round() as u64);
                     }
-                    bar.set_message(text.trim().to_string());
+                    // Short enough for any terminal: the bar's line is never cut mid-word.
+                    bar.set_message(format!("{} nodes", record.nodes));
                 }
                 if self.verbose {
                     tracing::info!("{}", text.trim());
@@ -273,9 +324,9 @@ impl Reporter {
                 lambda,
                 progress,
             }) => {
-                let text = format!("{stage} lambda = {lambda:.4}: {progress}");
+                let text = format!("{stage} lambda = {}: {progress}", significant(*lambda, 4));
                 if let Some(bar) = &self.bar {
-                    bar.set_message(text.clone());
+                    bar.set_message(format!("{} nodes", progress.nodes));
                 }
                 if self.verbose {
                     tracing::debug!("{text}");
@@ -309,10 +360,7 @@ impl Reporter {
                 if let Some(bar) = self.bar.take() {
                     bar.finish_and_clear();
                 }
-                self.line(format!(
-                    "case {}: {}; b = {:.4}, cost = {:.6}, constraint residual max|<Om,xi> - c| = {:.1e}, nodes = {}, {:.2} s",
-                    c.name, c.status, c.terminal_time, c.cost, c.max_abs_constraint, c.mesh_nodes, c.wall_seconds
-                ));
+                self.result(case_line(c));
             }
             AppEvent::CaseEnded { .. } => {
                 if let Some(bar) = self.bar.take() {
@@ -354,8 +402,10 @@ fn main() -> ExitCode {
     let mut reporter = Reporter {
         quiet: cli.quiet,
         verbose: cli.verbose,
+        json: cli.json,
         bar: None,
         terminal: std::io::stderr().is_terminal(),
+        case: String::new(),
     };
     let outcome = match cli.command {
         Command::Controllability(a) if a.along.is_some() => {
@@ -365,7 +415,11 @@ fn main() -> ExitCode {
                 app::run_rank_along_any(config, a.points, a.rtol, &mut |e| reporter.event(e));
             match result {
                 Ok(r) => {
-                    out(&r.text);
+                    if cli.json {
+                        print_json(&r.to_json());
+                    } else {
+                        out(&r.text);
+                    }
                     if r.all_accessible {
                         Outcome::Success
                     } else {
@@ -387,9 +441,13 @@ fn main() -> ExitCode {
                 rtol: a.rtol,
             };
             match app::run_rank_at_states(&request) {
-                Ok((table, verdict)) => {
-                    out(&table);
-                    match verdict {
+                Ok(table) => {
+                    if cli.json {
+                        print_json(&table.json);
+                    } else {
+                        out(&table.text);
+                    }
+                    match table.verdict {
                         AccessibilityVerdict::RankDeficient { .. } => Outcome::Negative,
                         _ => Outcome::Success,
                     }
@@ -399,17 +457,24 @@ fn main() -> ExitCode {
         }
         Command::Certify {
             config,
-            json,
+            json_file,
             tolerance,
         } => {
-            let result =
-                app::run_certify_any(config.as_deref(), tolerance, json.as_deref(), &mut |e| {
-                    reporter.event(e)
-                });
+            let result = app::run_certify_any(
+                config.as_deref(),
+                tolerance,
+                json_file.as_deref(),
+                &mut |e| reporter.event(e),
+            );
             match result {
                 Ok(reports) => {
-                    for r in &reports {
-                        out(&r.text());
+                    if cli.json {
+                        // The same document as --json-file writes.
+                        print_json(&serde_json::json!({ "cases": reports }));
+                    } else {
+                        for r in &reports {
+                            out(&r.text());
+                        }
                     }
                     let certified = |r: &suslov::report::CertificateReport| {
                         r.verdict == "certified"
@@ -431,14 +496,54 @@ fn main() -> ExitCode {
             app::run_paper(&out, &mut |e| reporter.event(e)),
             &out,
             cli.quiet,
+            cli.json,
         ),
-        Command::Solve { config, out } => solved(
-            app::run_solve(&config, &out, &mut |e| reporter.event(e)),
-            &out,
-            cli.quiet,
-        ),
+        Command::Solve { config, out } => {
+            let out = out.unwrap_or_else(|| default_solve_out(&config));
+            solved(
+                app::run_solve(&config, &out, &mut |e| reporter.event(e)),
+                &out,
+                cli.quiet,
+                cli.json,
+            )
+        }
     };
     outcome.code()
+}
+
+/// The result line of a case: its status, and for a solution (converged or not) its numbers
+/// with significant digits, the grid the constraint residual is taken on named. A case with no
+/// solution prints its status (with the reason) alone: no NaNs.
+fn case_line(c: &suslov::report::CaseSummary) -> String {
+    if !(c.terminal_time.is_finite() && c.cost.is_finite()) || c.mesh_nodes == 0 {
+        return format!("case {}: {}", c.name, c.status);
+    }
+    let grid = c
+        .extra
+        .get("check_grid_points")
+        .and_then(|v| v.as_u64())
+        .map(|p| format!(" on {p} points"))
+        .unwrap_or_default();
+    format!(
+        "case {}: {}; b = {}, cost = {}, max |<Omega, xi> - c| = {:.1e}{grid}, {} mesh nodes, {} s",
+        c.name,
+        c.status,
+        significant(c.terminal_time, 8),
+        significant(c.cost, 8),
+        c.max_abs_constraint,
+        c.mesh_nodes,
+        significant(c.wall_seconds, 2)
+    )
+}
+
+/// `solve FILE` without `--out`: `out/<FILE's stem>` (beside `paper`'s default `out`, never
+/// the same directory, so one run does not sweep the other's files).
+fn default_solve_out(config: &std::path::Path) -> PathBuf {
+    let stem = config
+        .file_stem()
+        .filter(|s| !s.is_empty())
+        .unwrap_or_else(|| std::ffi::OsStr::new("problem"));
+    PathBuf::from("out").join(stem)
 }
 
 /// Prints the error of a job that stopped.
@@ -447,16 +552,26 @@ fn fail(e: &app::AppError) -> Outcome {
     Outcome::Error
 }
 
-/// The outcome of `paper` / `solve`.
+/// The outcome of `paper` / `solve`; with `--json`, `summary.json`'s content on stdout.
 fn solved(
     result: Result<suslov::report::Summary, app::AppError>,
     out: &std::path::Path,
     quiet: bool,
+    json: bool,
 ) -> Outcome {
     match result {
         Ok(summary) => {
             if !quiet {
                 say!("wrote {}", out.join(suslov::report::SUMMARY_FILE).display());
+            }
+            if json {
+                match summary.to_json_string() {
+                    Ok(text) => out_json(&text),
+                    Err(e) => {
+                        say!("error: cannot print the results as JSON: {e}");
+                        return Outcome::Error;
+                    }
+                }
             }
             if summary.cases.iter().all(|c| c.status == "converged") {
                 Outcome::Success

@@ -396,7 +396,7 @@ fn certify_checks_its_json_path_before_the_work_and_exit_statuses_differ() {
     let out = Command::new(BIN)
         .args(["-q", "certify"])
         .arg(example("segment.toml"))
-        .arg("--json")
+        .arg("--json-file")
         .arg(blocker.join("sub").join("c.json"))
         .output()
         .unwrap();
@@ -413,7 +413,7 @@ fn certify_checks_its_json_path_before_the_work_and_exit_statuses_differ() {
     let out = Command::new(BIN)
         .args(["-q", "certify"])
         .arg(example("segment.toml"))
-        .arg("--json")
+        .arg("--json-file")
         .arg(&long)
         .output()
         .unwrap();

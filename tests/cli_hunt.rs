@@ -248,7 +248,7 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
     let e = stderr(&o);
     assert_eq!(o.status.code(), Some(1), "{e}");
     assert!(
-        e.contains("--json") && e.contains("output directory"),
+        e.contains("--json-file") && e.contains("output directory"),
         "{e}"
     );
     assert_eq!(std::fs::read(&target).unwrap(), summary);
@@ -271,14 +271,14 @@ fn certify_json_never_replaces_a_special_file_or_another_runs_output() {
 }
 
 /// A fixed-time segment problem with `omega_a = s·[3, 0, 0]`, `omega_b = s·[1, 2, 0]`.
-/// `suslov -q certify CONFIG --json TARGET`.
+/// `suslov -q certify CONFIG --json-file TARGET`.
 fn certify_json(config: &Path, target: &Path) -> Output {
     run(
         &[
             "-q",
             "certify",
             config.to_str().unwrap(),
-            "--json",
+            "--json-file",
             target.to_str().unwrap(),
         ],
         120,

@@ -234,7 +234,14 @@ fn every_model_has_rank_dim_m_at_sampled_states_and_moves_a_state_onto_the_level
                 seed: 1,
                 rtol: 1e-9,
             };
-            let (text, verdict) = suslov::app::run_rank_at_states(&request).unwrap();
+            let suslov::app::RankTable {
+                text,
+                verdict,
+                json,
+            } = suslov::app::run_rank_at_states(&request).unwrap();
+            // The data behind the table says the same.
+            assert_eq!(json["verdict"]["verdict"], "accessible", "{name}: {json}");
+            assert_eq!(json["states"].as_array().map(Vec::len), Some(8), "{name}");
             assert_eq!(
                 verdict,
                 suslov::suslov::controllability::AccessibilityVerdict::Accessible { on_m: 8 },

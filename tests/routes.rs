@@ -265,7 +265,7 @@ fn a_solution_past_a_fold_carries_its_certificate_in_the_summary() {
     let summary = suslov::app::summarize("segment", &sol, 0.0);
     let after = &summary.extra["after_fold"];
     assert_eq!(after["folds"], serde_json::json!([0.05]));
-    assert_eq!(after["verdict"], "Certified", "{after}");
+    assert_eq!(after["verdict"], "certified", "{after}");
 }
 
 /// A start that fails on every route (the paper's data held for 90 time units after the
@@ -373,7 +373,7 @@ fn a_branch_through_two_folds_reaches_the_target_and_is_certified() {
     let summary = suslov::app::summarize("issue12-124", &sol, 0.0);
     let after = &summary.extra["after_fold"];
     assert_eq!(after["folds"].as_array().map(Vec::len), Some(2), "{after}");
-    assert_eq!(after["verdict"], "Certified", "{after}");
+    assert_eq!(after["verdict"], "certified", "{after}");
 }
 
 /// Corpus problem fast-199 (γ = 0): every route stalls just short of γ = 0, and the default

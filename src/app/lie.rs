@@ -229,6 +229,10 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
         "bc_residual".into(),
         serde_json::json!(finite(d.bc_residual)),
     );
+    // The grid the checks (max |<Omega, xi>|, |xi| range, energy drift, residuals) are
+    // taken on: every mesh interval cut into `FINE_PER_INTERVAL` pieces.
+    c.extra
+        .insert("check_grid_points".into(), serde_json::json!(d.grid_points));
     c.extra.insert(
         "max_relative_residual".into(),
         serde_json::json!(finite(d.max_relative_residual)),
@@ -325,7 +329,7 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
             match certified {
                 Ok(cert) => serde_json::json!({
                     "folds": folds,
-                    "verdict": format!("{:?}", cert.verdict()),
+                    "verdict": cert.verdict(),
                     "sentence": cert.verdict().sentence(),
                 }),
                 Err(e) => serde_json::json!({
@@ -571,13 +575,23 @@ pub fn run_model_rank_along<M: Model>(
             return Ok(super::RankAlong {
                 text: format!("case {name}: the solve failed: {e}\n"),
                 all_accessible: false,
+                cases: vec![serde_json::json!({
+                    "name": name,
+                    "model": M::NAME,
+                    "solve_error": e.to_string(),
+                })],
             });
         }
     };
     let mut text = String::new();
     let verification = lie::verify_solution(&sol).verification;
     let mut all_accessible = true;
-    if let Verdict::Unverified { reason } = verification.verdict() {
+    let verdict = verification.verdict();
+    let unverified = match &verdict {
+        Verdict::Unverified { reason } => Some(reason.clone()),
+        Verdict::Verified => None,
+    };
+    if let Some(reason) = &unverified {
         all_accessible = false;
         text += &format!(
             "case {name}: the solution did not pass its a-posteriori checks ({reason}); the \
@@ -590,8 +604,8 @@ pub fn run_model_rank_along<M: Model>(
     text += &format!(
         "case {name} (model {}): rank of V {} at all {points} times of [{a}, {b:.6}] (dim M = \
          {})\n  smallest sigma_(dim M)/sigma_1 {:.4e}; largest sigma_(dim M + 1)/sigma_1 \
-         {:.1e}; the solution's max |<Omega, xi>|/(|Omega| |xi|) {:.1e} (xi projected onto \
-         Omega^perp for the test)\n",
+         {:.1e}; the solution's max |<Omega, xi>|/(|Omega| |xi|) {:.1e} at these times (xi \
+         projected onto Omega^perp for the test)\n",
         M::NAME,
         if r.min_rank == r.max_rank {
             format!("= {}", r.min_rank)
@@ -604,9 +618,20 @@ pub fn run_model_rank_along<M: Model>(
         r.max_constraint,
     );
     events(AppEvent::CaseEnded { name: &name });
+    let case = serde_json::json!({
+        "name": name,
+        "model": M::NAME,
+        "unverified": unverified,
+        "t0": a,
+        "terminal_time": b,
+        "dim_m": r.dim_m,
+        "max_constraint": r.max_constraint,
+        "rank": r,
+    });
     Ok(super::RankAlong {
         text,
         all_accessible,
+        cases: vec![case],
     })
 }
 
@@ -871,7 +896,7 @@ pub(crate) fn constraint_parameters<M: Model>(
 /// verdict (rank `dim M` at every state of `M` tested, or not).
 pub fn run_model_rank_at_states<M: Model>(
     a: &super::RankAtStates,
-) -> Result<(String, AccessibilityVerdict), AppError> {
+) -> Result<super::RankTable, AppError> {
     use crate::lie::controllability::{rank_at, sample_states, ON_LEVEL_RTOL};
     use crate::suslov::controllability as c;
     use std::fmt::Write;
@@ -1122,5 +1147,21 @@ pub fn run_model_rank_at_states<M: Model>(
             );
         }
     }
-    Ok((s, verdict))
+    let json = serde_json::json!({
+        "model": M::NAME,
+        "parameters": M::INERTIA_PARAMS
+            .iter()
+            .chain(M::CONSTRAINT_PARAMS)
+            .map(|m| (m.name.to_string(), serde_json::json!(p[m.index])))
+            .collect::<serde_json::Map<_, _>>(),
+        "rtol": a.rtol,
+        "dim_m": dim_m,
+        "states": rows,
+        "verdict": verdict,
+    });
+    Ok(super::RankTable {
+        text: s,
+        verdict,
+        json,
+    })
 }

@@ -38,6 +38,23 @@ impl Status {
         self == Status::Converged
     }
 
+    /// What happened, in a few words and no Rust names (for one-line reports, e.g.
+    /// `"Newton's method did not converge"`); [`Status::message`] adds what to try.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Status::Converged => "converged",
+            Status::ToleranceNotMet => "the error estimate exceeds the tolerance on the fixed mesh",
+            Status::MaxNodes => "meeting the tolerance would need more mesh nodes than allowed",
+            Status::MaxMeshPasses => "the mesh-pass limit was reached before the tolerance",
+            Status::SingularJacobian => "the Newton matrix is singular or too ill-conditioned",
+            Status::NoConvergence => {
+                "Newton's method did not converge, even after refining the mesh"
+            }
+            Status::NonFinite => "the equations returned NaN or infinity",
+            Status::BcTolNotMet => "the boundary conditions do not meet their tolerance",
+        }
+    }
+
     /// A human explanation with what to try next.
     pub fn message(self) -> &'static str {
         match self {

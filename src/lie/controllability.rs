@@ -44,6 +44,7 @@ pub const STATE_SCALE_MAX_EXP: i32 = 20;
 /// What the states tested show about the accessibility theorem (rank `V` = `dim M` on `M`;
 /// 4 for so(3), the paper's).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(tag = "verdict", rename_all = "snake_case")]
 pub enum AccessibilityVerdict {
     /// Rank `dim M` at every state of `M` tested (and there was at least one).
     Accessible {

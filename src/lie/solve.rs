@@ -131,6 +131,29 @@ impl Default for SolveOptions {
     }
 }
 
+/// Why a BVP solve of the homotopy failed, in words, with what a problem file can change
+/// (the `solver.*` keys are [`SolveOptions`]' fields).
+pub fn bvp_failure(status: crate::bvp::Status) -> String {
+    use crate::bvp::Status;
+    let what = status.describe();
+    match status {
+        Status::MaxNodes => format!(
+            "{what}; raise `solver.max_nodes` (at most 50 000) or loosen `solver.tolerance`"
+        ),
+        Status::MaxMeshPasses | Status::ToleranceNotMet => {
+            format!("{what}; loosen `solver.tolerance` or raise `solver.initial_intervals`")
+        }
+        Status::SingularJacobian => {
+            format!("{what}: the problem may have no solution or no unique one near this point")
+        }
+        Status::NoConvergence => format!(
+            "{what}; a finer first mesh (`solver.initial_intervals`) or another start \
+             (`solver.start`, `solver.beta_m`) may help"
+        ),
+        _ => what.to_string(),
+    }
+}
+
 /// Which path the analytic start used, and why.
 #[derive(Debug, Clone, PartialEq)]
 pub struct StartChoice {
@@ -1243,10 +1266,9 @@ impl<M: Model> Homotopy<'_, M> {
                     ratio = 1e-1;
                 } else {
                     let mut why = format!(
-                        "{:?}: {} (the direct solve at {tol:e} failed too; stepping the \
-                         tolerance down from {from_tol:e}, the step from {good:e} to {t:e} failed)",
-                        sol.status,
-                        sol.status.message()
+                        "{} (the direct solve at {tol:e} failed too; stepping the tolerance \
+                         down from {from_tol:e}, the step from {good:e} to {t:e} failed)",
+                        bvp_failure(sol.status)
                     );
                     if let Some(collapse) =
                         xi_collapse::<M>(None, &self.solution, &self.params, self.problem.params())
@@ -1317,7 +1339,7 @@ impl<M: Model> Homotopy<'_, M> {
                 StageOutcome::Completed
             } else {
                 StageOutcome::Stopped {
-                    reason: format!("{:?}: {}", sol.status, sol.status.message()),
+                    reason: bvp_failure(sol.status),
                 }
             },
         };
@@ -1595,10 +1617,15 @@ pub fn solve<M: Model>(
                 .iter()
                 .map(|r| format!("{}: {}", r.route, r.stopped.as_deref().unwrap_or("solved")))
                 .collect();
-            LieSolveError::Start(format!(
-                "{reason}; other routes tried: {}",
-                tried.join("; ")
-            ))
+            if tried.is_empty() {
+                // `solver.max_routes = 1`, or no alternative applies.
+                LieSolveError::Start(reason)
+            } else {
+                LieSolveError::Start(format!(
+                    "{reason}; other routes tried: {}",
+                    tried.join("; ")
+                ))
+            }
         }
         other => other,
     })
@@ -1802,7 +1829,12 @@ fn time_scan<M: Model>(
                 TimeSample {
                     span: sol.t_span,
                     cost: None,
-                    stopped: Some(format!("unverified: {:?}", checked.verification.verdict())),
+                    stopped: Some(match checked.verification.verdict() {
+                        crate::lie::checks::Verdict::Unverified { reason } => {
+                            format!("unverified: {reason}")
+                        }
+                        crate::lie::checks::Verdict::Verified => "unverified".to_string(),
+                    }),
                     continued,
                 },
                 None,
@@ -2266,11 +2298,15 @@ fn solve_route<M: Model>(
         folds: Vec::new(),
     };
     if !first.is_success() {
+        let advice = match first.status {
+            // The mesh limits, whatever beta_m is.
+            crate::bvp::Status::MaxNodes | crate::bvp::Status::MaxMeshPasses => "",
+            _ => "; a smaller or larger `solver.beta_m` may help too",
+        };
         let reason = format!(
-            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge \
-             ({:?}: {}); try a smaller or larger beta_m, or more initial intervals",
-            first.status,
-            first.status.message()
+            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge: \
+             {}{advice}",
+            bvp_failure(first.status)
         );
         report.outcome = StageOutcome::Stopped {
             reason: reason.clone(),

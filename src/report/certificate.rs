@@ -183,22 +183,27 @@ impl CertificateReport {
         };
         format!(
             "case {name}: {msg}\n\
-             \x20 b = {b:.6}{free}, cost = {cost:.6}, {iv} intervals: {nv} unknowns, {nc} constraints\n\
+             \x20 b = {b}{free}, cost = {cost}, {iv} intervals: {nv} unknowns, {nc} constraints\n\
              \x20 indirect solution as a KKT point: stationarity {cs:.1e}, feasibility {cf:.1e}\n\
              \x20 Newton to the exact KKT point: {it} iterations, displacement {disp:.1e}, \
              residuals {ks:.1e} / {kf:.1e}\n\
              \x20 multipliers vs costates from kappa: {cm:.1e} (relative)\n\
-             \x20 KKT inertia (+{p}, -{n}, 0x{z}); expected (+{nv}, -{nc}, 0x0) for a minimum; \
-             {neg} negative curvature direction(s)\n\
+             \x20 KKT matrix inertia: {p} positive, {n} negative, {z} zero eigenvalues (a strict \
+             local minimum has {nv} positive, {nc} negative, 0 zero); {neg} negative curvature \
+             direction(s)\n\
              \x20 smallest eigenvalue of the reduced Hessian: {margin}\n\
              \x20 {weak}\n\
              \x20 first conjugate point (fixed-end variations): {conj}\n\
              \x20 LBL^T backward error {be:.1e}; {ss:.2} s solve, {cs2:.2} s certificate\n",
             name = self.name,
             msg = self.message,
-            b = self.terminal_time,
-            free = if self.free_time { " (free)" } else { " (fixed)" },
-            cost = self.cost,
+            b = super::significant(self.terminal_time, 8),
+            free = if self.free_time {
+                " (free)"
+            } else {
+                " (fixed)"
+            },
+            cost = super::significant(self.cost, 8),
             iv = self.intervals,
             nv = self.unknowns,
             nc = self.constraints,

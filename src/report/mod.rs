@@ -42,6 +42,7 @@ mod certificate;
 mod csv;
 mod error;
 mod figures;
+mod number;
 mod outdir;
 mod summary;
 mod table;
@@ -57,6 +58,7 @@ pub use figures::{
     render_figure_bytes, render_planar_path_png, write_case_figures, write_figure, Figure,
     FigureFormat, FigureOptions,
 };
+pub use number::significant;
 pub use outdir::{
     belongs_to_a_run, OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE,
 };

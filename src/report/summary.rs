@@ -29,7 +29,10 @@ pub struct CaseSummary {
     /// Value of the cost functional at the solution.
     #[serde(with = "finite_or_null")]
     pub cost: f64,
-    /// `max_t |⟨Ω, ξ⟩|` on the output grid.
+    /// `max_t |⟨Ω, ξ⟩ − c|` (the constraint residual; `c` is the constraint value, 0 unless the
+    /// model has one) on the checks' fine grid: every mesh interval cut into
+    /// `lie::checks::FINE_PER_INTERVAL` pieces, `extra.check_grid_points` points in all (not the
+    /// output grid of `trajectory.csv`, whose samples can miss the largest value).
     #[serde(with = "finite_or_null")]
     pub max_abs_constraint: f64,
     /// `min_t |ξ|`.

@@ -513,8 +513,23 @@ pub fn report_table(
     states: &[State],
     rtol: f64,
 ) -> Result<(String, AccessibilityVerdict), SuslovError> {
+    report_table_rows(inertia, states, rtol).map(|(text, verdict, _)| (text, verdict))
+}
+
+/// The table of [`report_table_rows`]: its text, its verdict, and per state its
+/// [`RankReport`] and whether it is on `M`.
+pub type RankTableRows = (String, AccessibilityVerdict, Vec<(RankReport, bool)>);
+
+/// [`report_table`] with its rows as data: the [`RankReport`] of every state and whether it
+/// is on `M` (for machine-readable output).
+pub fn report_table_rows(
+    inertia: &Inertia,
+    states: &[State],
+    rtol: f64,
+) -> Result<RankTableRows, SuslovError> {
     use std::fmt::Write;
     check_rtol(rtol)?;
+    let mut reports = Vec::with_capacity(states.len());
     let d = inertia.diag();
     let mut s = String::new();
     let _ = writeln!(
@@ -571,6 +586,7 @@ pub fn report_table(
         let drifts = f_s > DRIFT_RTOL * om_s.norm_squared() || (f_s == 0.0 && r.drift_norm > 0.0);
         rescaled |= r.scales != (0, 0);
         rows.push((r.rank, on_m, drifts, r.drift_norm));
+        reports.push((r, on_m));
     }
     if rescaled {
         let _ = writeln!(
@@ -652,7 +668,7 @@ pub fn report_table(
          M = {{1/2 <I Om, Om> = e_S > 0, <Om, xi> = 0, xi != 0}}; off M the rank is 5 \
          (only <Om, xi> is invariant), at Omega = 0 it is 3."
     );
-    Ok((s, verdict))
+    Ok((s, verdict, reports))
 }
 
 #[cfg(test)]
