@@ -5,6 +5,7 @@
 //!
 //! - [`path`]: desired and start paths `Ω(t) ∈ Rⁿ` with exact derivatives, and the radial
 //!   projection onto the energy level set `⟨Ω, 𝕀Ω⟩ = const` of a full inertia matrix;
+//! - [`expression`]: desired paths as formulas in `t`, differentiated exactly in Taylor mode;
 //! - [`problem`]: a problem as data ([`Problem`]) and its BVP ([`LieBvp`]);
 //! - [`solve`](mod@solve): the analytic singular start and the staged homotopy, its stages read from the
 //!   weights' [`HomotopyRole`](crate::model::HomotopyRole)s;
@@ -25,6 +26,7 @@
 pub mod certify;
 pub mod checks;
 pub mod controllability;
+pub mod expression;
 pub mod path;
 pub mod problem;
 pub mod solve;
