@@ -3,11 +3,10 @@
 //! `Ω_d(t)` can be given component by component as text, e.g.
 //! `["3 cos(0.5 t)", "2 sin(0.5 t)", "1 + 0.1 t^2"]` (a problem file's `kind = "expression"`).
 //! The homotopy and the optimality system need `Ω_d` and its first three derivatives
-//! ([`Path::jet_into`]); they are computed exactly — to rounding — by evaluating the formula
-//! over truncated Taylor series (automatic differentiation in Taylor mode): every value is a
-//! [`Jet`] `(f, f', f''/2, f'''/6)` at `t`, and every operation and function propagates all
-//! four coefficients by its standard recurrence (Griewank & Walther, *Evaluating Derivatives*,
-//! 2nd ed., SIAM 2008, ch. 13). No symbolic differentiation, no finite differences.
+//! ([`Path::jet_into`]); they are computed exactly (to rounding) by evaluating the formula's
+//! syntax tree over third-order dual numbers (`num_dual::Dual3`: forward-mode automatic
+//! differentiation, as the other paths of this layer are), and the value alone over `f64`.
+//! No symbolic differentiation, no finite differences.
 //!
 //! # Grammar
 //!
@@ -31,187 +30,14 @@
 //! to NaN; [`Expression::check_finite`] finds the first such time on a grid so that a problem
 //! file is refused before solving.
 
-use super::path::Path;
+use num_dual::Dual3;
+
+use super::path::{Path, Scalar};
 
 /// Longest formula accepted, in characters.
 pub const MAX_EXPRESSION_CHARS: usize = 2000;
 /// Deepest nesting of parentheses, function calls, signs and powers accepted.
 pub const MAX_DEPTH: usize = 64;
-
-/// A truncated Taylor series at a point: `c[k] = f^(k)(t) / k!`, `k = 0..=3`.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Jet(pub [f64; 4]);
-
-impl Jet {
-    /// A constant.
-    pub fn constant(v: f64) -> Self {
-        Self([v, 0.0, 0.0, 0.0])
-    }
-
-    /// The independent variable at `t`.
-    pub fn variable(t: f64) -> Self {
-        Self([t, 1.0, 0.0, 0.0])
-    }
-
-    /// `(f, f', f'', f''')`.
-    pub fn derivatives(&self) -> [f64; 4] {
-        let c = self.0;
-        [c[0], c[1], 2.0 * c[2], 6.0 * c[3]]
-    }
-
-    fn is_constant(&self) -> bool {
-        self.0[1..].iter().all(|&v| v == 0.0)
-    }
-
-    fn add(self, o: Self) -> Self {
-        let (a, b) = (self.0, o.0);
-        Self([a[0] + b[0], a[1] + b[1], a[2] + b[2], a[3] + b[3]])
-    }
-
-    fn sub(self, o: Self) -> Self {
-        let (a, b) = (self.0, o.0);
-        Self([a[0] - b[0], a[1] - b[1], a[2] - b[2], a[3] - b[3]])
-    }
-
-    fn neg(self) -> Self {
-        let a = self.0;
-        Self([-a[0], -a[1], -a[2], -a[3]])
-    }
-
-    fn mul(self, o: Self) -> Self {
-        let (a, b) = (self.0, o.0);
-        let mut c = [0.0; 4];
-        for (k, ck) in c.iter_mut().enumerate() {
-            *ck = (0..=k).map(|j| a[j] * b[k - j]).sum();
-        }
-        Self(c)
-    }
-
-    fn div(self, o: Self) -> Self {
-        let (a, b) = (self.0, o.0);
-        let mut c = [0.0; 4];
-        for k in 0..4 {
-            let s: f64 = (1..=k).map(|j| b[j] * c[k - j]).sum();
-            c[k] = (a[k] - s) / b[0];
-        }
-        Self(c)
-    }
-
-    /// `y = f(a)` from `f(a_0)` and the jet of `f'(a)`: `y' = f'(a) a'`, coefficient by
-    /// coefficient `y_k = (1/k) sum_{j=1..k} j a_j g_{k-j}`.
-    fn chain(self, value: f64, g: Self) -> Self {
-        let (a, g) = (self.0, g.0);
-        let mut y = [value, 0.0, 0.0, 0.0];
-        for k in 1..4 {
-            let s: f64 = (1..=k).map(|j| j as f64 * a[j] * g[k - j]).sum();
-            y[k] = s / k as f64;
-        }
-        Self(y)
-    }
-
-    fn exp(self) -> Self {
-        let a = self.0;
-        let mut e = [a[0].exp(), 0.0, 0.0, 0.0];
-        for k in 1..4 {
-            let s: f64 = (1..=k).map(|j| j as f64 * a[j] * e[k - j]).sum();
-            e[k] = s / k as f64;
-        }
-        Self(e)
-    }
-
-    fn ln(self) -> Self {
-        // y' = a'/a.
-        self.chain(self.0[0].ln(), Self::constant(1.0).div(self))
-    }
-
-    fn sqrt(self) -> Self {
-        let a = self.0;
-        let r0 = a[0].sqrt();
-        let mut r = [r0, 0.0, 0.0, 0.0];
-        for k in 1..4 {
-            let s: f64 = (1..k).map(|j| r[j] * r[k - j]).sum();
-            r[k] = (a[k] - s) / (2.0 * r0);
-        }
-        Self(r)
-    }
-
-    /// `(sin a, cos a)` (or `(sinh a, cosh a)` with `hyperbolic`), by the coupled recurrence.
-    fn sin_cos(self, hyperbolic: bool) -> (Self, Self) {
-        let a = self.0;
-        let (mut s, mut c) = if hyperbolic {
-            ([a[0].sinh(), 0.0, 0.0, 0.0], [a[0].cosh(), 0.0, 0.0, 0.0])
-        } else {
-            ([a[0].sin(), 0.0, 0.0, 0.0], [a[0].cos(), 0.0, 0.0, 0.0])
-        };
-        let sign = if hyperbolic { 1.0 } else { -1.0 };
-        for k in 1..4 {
-            let mut ss = 0.0;
-            let mut cs = 0.0;
-            for j in 1..=k {
-                ss += j as f64 * a[j] * c[k - j];
-                cs += j as f64 * a[j] * s[k - j];
-            }
-            s[k] = ss / k as f64;
-            c[k] = sign * cs / k as f64;
-        }
-        (Self(s), Self(c))
-    }
-
-    fn tanh(self) -> Self {
-        // y' = (1 - y^2) a', built up coefficient by coefficient (no overflow for large |a|).
-        let a = self.0;
-        let mut y = [a[0].tanh(), 0.0, 0.0, 0.0];
-        let mut u = [1.0 - y[0] * y[0], 0.0, 0.0, 0.0];
-        for k in 1..4 {
-            let s: f64 = (1..=k).map(|j| j as f64 * a[j] * u[k - j]).sum();
-            y[k] = s / k as f64;
-            u[k] = -(0..=k).map(|j| y[j] * y[k - j]).sum::<f64>();
-        }
-        Self(y)
-    }
-
-    /// `self^p` for a constant `p`: repeated multiplication for an integer `|p| <= 64`,
-    /// else the recurrence of `w' a = p a' w` (needs `a_0 > 0`, NaN otherwise).
-    fn powf(self, p: f64) -> Self {
-        if p == p.trunc() && p.abs() <= 64.0 {
-            let mut result = Self::constant(1.0);
-            let mut base = self;
-            let mut e = p.abs() as u32;
-            while e > 0 {
-                if e & 1 == 1 {
-                    result = result.mul(base);
-                }
-                base = base.mul(base);
-                e >>= 1;
-            }
-            return if p < 0.0 {
-                Self::constant(1.0).div(result)
-            } else {
-                result
-            };
-        }
-        let a = self.0;
-        if a[0].is_nan() || a[0] <= 0.0 {
-            return Self([f64::NAN; 4]);
-        }
-        let mut w = [a[0].powf(p), 0.0, 0.0, 0.0];
-        for k in 1..4 {
-            let s: f64 = (1..=k)
-                .map(|j| (p * j as f64 - (k - j) as f64) * a[j] * w[k - j])
-                .sum();
-            w[k] = s / (k as f64 * a[0]);
-        }
-        Self(w)
-    }
-
-    fn pow(self, e: Self) -> Self {
-        if e.is_constant() {
-            self.powf(e.0[0])
-        } else {
-            e.mul(self.ln()).exp()
-        }
-    }
-}
 
 /// The functions a formula may call.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -247,25 +73,20 @@ const FUNCS: [(&str, Func); 13] = [
 ];
 
 impl Func {
-    fn apply(self, a: Jet) -> Jet {
-        let one = Jet::constant(1.0);
+    fn apply<D: Scalar>(self, a: D) -> D {
         match self {
-            Func::Sin => a.sin_cos(false).0,
-            Func::Cos => a.sin_cos(false).1,
-            Func::Tan => {
-                let (s, c) = a.sin_cos(false);
-                s.div(c)
-            }
+            Func::Sin => a.sin(),
+            Func::Cos => a.cos(),
+            Func::Tan => a.tan(),
             Func::Exp => a.exp(),
             Func::Log => a.ln(),
             Func::Sqrt => a.sqrt(),
-            Func::Sinh => a.sin_cos(true).0,
-            Func::Cosh => a.sin_cos(true).1,
+            Func::Sinh => a.sinh(),
+            Func::Cosh => a.cosh(),
             Func::Tanh => a.tanh(),
-            // asin' = 1/sqrt(1 - a^2), acos' = -asin', atan' = 1/(1 + a^2).
-            Func::Asin => a.chain(a.0[0].asin(), one.div(one.sub(a.mul(a)).sqrt())),
-            Func::Acos => a.chain(a.0[0].acos(), one.div(one.sub(a.mul(a)).sqrt()).neg()),
-            Func::Atan => a.chain(a.0[0].atan(), one.div(one.add(a.mul(a)))),
+            Func::Asin => a.asin(),
+            Func::Acos => a.acos(),
+            Func::Atan => a.atan(),
         }
     }
 }
@@ -285,16 +106,71 @@ enum Node {
 }
 
 impl Node {
-    fn eval(&self, t: Jet) -> Jet {
+    /// Subtrees without `t` replaced by their value (so that `t^(1 + 1)` is `t^2`, an integer
+    /// power by multiplication, and constants are not re-evaluated at every time).
+    fn fold(self) -> Node {
+        let both = |a: Box<Node>, b: Box<Node>| (Box::new(a.fold()), Box::new(b.fold()));
+        let folded = match self {
+            Node::Num(_) | Node::T => return self,
+            Node::Neg(a) => Node::Neg(Box::new(a.fold())),
+            Node::Call(f, a) => Node::Call(f, Box::new(a.fold())),
+            Node::Add(a, b) => {
+                let (a, b) = both(a, b);
+                Node::Add(a, b)
+            }
+            Node::Sub(a, b) => {
+                let (a, b) = both(a, b);
+                Node::Sub(a, b)
+            }
+            Node::Mul(a, b) => {
+                let (a, b) = both(a, b);
+                Node::Mul(a, b)
+            }
+            Node::Div(a, b) => {
+                let (a, b) = both(a, b);
+                Node::Div(a, b)
+            }
+            Node::Pow(a, b) => {
+                let (a, b) = both(a, b);
+                Node::Pow(a, b)
+            }
+        };
+        if folded.has_t() {
+            folded
+        } else {
+            Node::Num(folded.eval(0.0))
+        }
+    }
+
+    fn has_t(&self) -> bool {
         match self {
-            Node::Num(v) => Jet::constant(*v),
+            Node::Num(_) => false,
+            Node::T => true,
+            Node::Neg(a) | Node::Call(_, a) => a.has_t(),
+            Node::Add(a, b)
+            | Node::Sub(a, b)
+            | Node::Mul(a, b)
+            | Node::Div(a, b)
+            | Node::Pow(a, b) => a.has_t() || b.has_t(),
+        }
+    }
+
+    fn eval<D: Scalar>(&self, t: D) -> D {
+        match self {
+            Node::Num(v) => D::from(*v),
             Node::T => t,
-            Node::Neg(a) => a.eval(t).neg(),
-            Node::Add(a, b) => a.eval(t).add(b.eval(t)),
-            Node::Sub(a, b) => a.eval(t).sub(b.eval(t)),
-            Node::Mul(a, b) => a.eval(t).mul(b.eval(t)),
-            Node::Div(a, b) => a.eval(t).div(b.eval(t)),
-            Node::Pow(a, b) => a.eval(t).pow(b.eval(t)),
+            Node::Neg(a) => -a.eval(t),
+            Node::Add(a, b) => a.eval(t) + b.eval(t),
+            Node::Sub(a, b) => a.eval(t) - b.eval(t),
+            Node::Mul(a, b) => a.eval(t) * b.eval(t),
+            Node::Div(a, b) => a.eval(t) / b.eval(t),
+            Node::Pow(a, b) => match b.as_ref() {
+                // A constant exponent: an integer one is repeated multiplication (defined
+                // for negative bases), any other `a^p` needs `a > 0`.
+                Node::Num(p) if *p == p.trunc() && p.abs() <= 64.0 => a.eval(t).powi(*p as i32),
+                Node::Num(p) => a.eval(t).powf(*p),
+                _ => (b.eval(t) * a.eval(t).ln()).exp(),
+            },
             Node::Call(f, a) => f.apply(a.eval(t)),
         }
     }
@@ -625,7 +501,7 @@ impl Formula {
         }
         Ok(Self {
             text: text.to_string(),
-            root,
+            root: root.fold(),
         })
     }
 
@@ -636,7 +512,13 @@ impl Formula {
 
     /// `(f, f', f'', f''')` at `t`.
     pub fn derivatives(&self, t: f64) -> [f64; 4] {
-        self.root.eval(Jet::variable(t)).derivatives()
+        let d = self.root.eval(Dual3::from_re(t).derivative());
+        [d.re, d.v1, d.v2, d.v3]
+    }
+
+    /// `f(t)`.
+    pub fn value(&self, t: f64) -> f64 {
+        self.root.eval(t)
     }
 }
 
@@ -690,6 +572,19 @@ impl Expression {
 impl Path for Expression {
     fn dim(&self) -> usize {
         self.components.len()
+    }
+
+    fn value_into(&self, t: f64, out: &mut [f64]) {
+        assert_eq!(
+            out.len(),
+            self.dim(),
+            "Path::value_into: `out` has {} entries, but this path needs {}",
+            out.len(),
+            self.dim()
+        );
+        for (o, f) in out.iter_mut().zip(&self.components) {
+            *o = f.value(t);
+        }
     }
 
     fn jet_into(&self, t: f64, out: &mut [f64]) {
