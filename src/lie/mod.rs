@@ -33,5 +33,5 @@ pub mod solve;
 pub mod verify;
 
 pub use problem::{LieBvp, Problem, ProblemError};
-pub use solve::{solve, LieSolution, LieSolveError};
+pub use solve::{solve, solve_from, LieSolution, LieSolveError, WarmStart};
 pub use verify::verify_solution;

@@ -2086,6 +2086,209 @@ fn free_from_fixed<M: Model>(
     h.finish(options, &bvp_opts, events)
 }
 
+/// A previous solution to start from ([`solve_from`]): the states at increasing physical
+/// times from the problem's `t0` to the previous terminal time (any grid; the mesh nodes of
+/// the previous solve are best, as `collocation.csv` holds them).
+#[derive(Debug, Clone, PartialEq)]
+pub struct WarmStart {
+    /// Times `t_0 < t_1 < … < t_m`, at least two.
+    pub times: Vec<f64>,
+    /// The states at those times, row-major, [`Model::N_STATE`] per time in the model's
+    /// layout (`trajectory.csv`'s state columns).
+    pub states: Vec<f64>,
+}
+
+/// The name under which [`solve_from`] reports the warm start in [`LieSolution::routes`].
+pub const WARM_START_ROUTE: &str = "warm start";
+
+/// Solve `problem` starting from `warm`, a solution of a nearby problem (other weights, end
+/// point, horizon): one BVP solve at the continuation tolerance from it, then the usual
+/// polish and a-posteriori checks, skipping the homotopy. When that fails, or the result does
+/// not pass its checks, [`solve`] runs from the analytic start as usual, and the warm start
+/// is listed first among the routes with the reason it stopped.
+pub fn solve_from<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    warm: &WarmStart,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let clock = std::time::Instant::now();
+    let stopped = match warm_solve(problem, options, warm, events) {
+        Ok(mut sol) => match super::verify::verify_solution(&sol).verification.verdict() {
+            super::checks::Verdict::Verified => {
+                sol.routes.push(RouteReport {
+                    route: WARM_START_ROUTE,
+                    stopped: None,
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                return Ok(sol);
+            }
+            super::checks::Verdict::Unverified { reason } => {
+                format!("its solution failed the checks: {reason}")
+            }
+        },
+        Err(e) => e.to_string(),
+    };
+    let warm_report = RouteReport {
+        route: WARM_START_ROUTE,
+        stopped: Some(stopped.clone()),
+        seconds: clock.elapsed().as_secs_f64(),
+    };
+    events(&Event::RouteStarted {
+        route: Route::DEFAULT.name,
+        after: &stopped,
+    });
+    let insert = |routes: &mut Vec<RouteReport>| routes.insert(0, warm_report.clone());
+    match solve(problem, options, events) {
+        Ok(mut sol) => {
+            insert(&mut sol.routes);
+            Ok(sol)
+        }
+        Err(LieSolveError::StageFailed {
+            stage,
+            parameter,
+            reached,
+            target,
+            reason,
+            mut partial,
+        }) => {
+            insert(&mut partial.routes);
+            Err(LieSolveError::StageFailed {
+                stage,
+                parameter,
+                reached,
+                target,
+                reason,
+                partial,
+            })
+        }
+        Err(e) => Err(e),
+    }
+}
+
+/// The warm start's solves: the guess from `warm` rescaled to `s ∈ [0, 1]`, one solve at the
+/// continuation tolerance with the problem's own weights and end point, then
+/// [`Homotopy::finish`].
+fn warm_solve<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    warm: &WarmStart,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let bad = |why: String| LieSolveError::Start(format!("the warm start: {why}"));
+    let (times, n) = (&warm.times, M::N_STATE);
+    if times.len() < 2 || warm.states.len() != times.len() * n {
+        return Err(bad(format!(
+            "{} times and {} state values; it needs at least 2 times and {n} values per time",
+            times.len(),
+            warm.states.len()
+        )));
+    }
+    if times.windows(2).any(|w| !(w[1] > w[0])) || warm.states.iter().any(|v| !v.is_finite()) {
+        return Err(bad(
+            "its times must increase strictly and its states be finite numbers".into(),
+        ));
+    }
+    let (first, last) = (times[0], times[times.len() - 1]);
+    if (first - problem.t0).abs() > 1e-9 * (1.0 + problem.t0.abs()) {
+        return Err(bad(format!(
+            "it starts at t = {first}, the problem at t0 = {}; start both at the same time",
+            problem.t0
+        )));
+    }
+    let previous_span = last - first;
+    let (fixed_span, t_span) = match problem.terminal {
+        TerminalTime::Fixed(b) => (Some(b - problem.t0), b - problem.t0),
+        TerminalTime::Free { .. } => (None, previous_span),
+    };
+    // The previous trajectory stretched onto the new horizon: s = (t - t0) / (b_prev - t0).
+    let x: Vec<f64> = times.iter().map(|t| (t - first) / previous_span).collect();
+    let params = problem.params().to_vec();
+    let bvp: LieBvp<'_, M> = LieBvp {
+        start_constraint: !crate::model::constraint_value_vanishes::<M>(&params),
+        params: params.clone(),
+        omega_a: &problem.omega_a,
+        omega_b: problem.omega_b.clone(),
+        t0: problem.t0,
+        fixed_span,
+        level_shift: 0.0,
+        desired: &*problem.desired,
+        model: std::marker::PhantomData,
+    };
+    let guess = Guess::from_values(x, warm.states.clone(), vec![])
+        .with_parameters(bvp.parameters(t_span, 0.0));
+    let bvp_opts = |tol: f64| bvp_options(options, tol);
+    let name = WARM_START_ROUTE;
+    let clock = std::time::Instant::now();
+    events(&Event::StageStarted {
+        name,
+        from: 0.0,
+        to: 0.0,
+    });
+    let sol = bvp::solve_with_progress(
+        &bvp,
+        &guess,
+        &bvp_opts(options.continuation_tol),
+        &mut |progress| {
+            events(&Event::Bvp {
+                stage: name,
+                lambda: 0.0,
+                progress,
+            })
+        },
+    )?;
+    let report = StageReport {
+        name,
+        parameter: "-",
+        from: 0.0,
+        to: 0.0,
+        steps: usize::from(sol.is_success()),
+        failures_recovered: 0,
+        newton_iterations: sol.stats.newton_iterations,
+        nodes: sol.num_nodes(),
+        seconds: clock.elapsed().as_secs_f64(),
+        folds: Vec::new(),
+        outcome: if sol.is_success() {
+            StageOutcome::Completed
+        } else {
+            StageOutcome::Stopped {
+                reason: bvp_failure(sol.status),
+            }
+        },
+    };
+    events(&Event::StageFinished(&report));
+    if !sol.is_success() {
+        return Err(bad(format!(
+            "the solve from it stopped: {}",
+            bvp_failure(sol.status)
+        )));
+    }
+    let t_span = match fixed_span {
+        Some(span) => span,
+        None => sol.p[SPAN],
+    };
+    let mut h = Homotopy {
+        problem,
+        params,
+        omega_b: problem.omega_b.clone(),
+        level_shift: 0.0,
+        fixed_span,
+        t_span,
+        solution: sol,
+        start: StartChoice {
+            omega_p: "a previous solution (warm start)",
+            case: 0,
+            b_p: problem.t0 + previous_span,
+            beta_m: f64::NAN,
+            desired_energy_deviation: f64::NAN,
+        },
+        stages: vec![report],
+        tolerance: options.tol,
+        tracking: problem.desired.clone(),
+    };
+    h.finish(options, &bvp_opts, events)
+}
+
 /// The BVP solver's options for a solve at `tol`.
 fn bvp_options(options: &SolveOptions, tol: f64) -> bvp::Options {
     bvp::Options {
