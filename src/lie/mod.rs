@@ -25,6 +25,7 @@
 
 pub mod certify;
 pub mod checks;
+pub mod collapse;
 pub mod controllability;
 pub mod expression;
 pub mod path;

@@ -1,0 +1,408 @@
+//! Controls whose `ξ` nearly vanishes: an upper bound on the infimum of the cost, and why the
+//! smooth optimality system cannot reach it.
+//!
+//! # The argument
+//!
+//! When the constraint value vanishes (`⟨Ω, ξ⟩ = 0`, every model with
+//! [`Problem::conserves_energy`]), Suslov's equations
+//! `𝕀Ω̇ = ad*_Ω 𝕀Ω + λξ` with λ chosen to keep `⟨Ω, ξ⟩ = 0` depend on `ξ` only through
+//! its direction: `ξ → σ(t) ξ` with any positive scalar `σ` leaves `λξ`, hence the motion,
+//! unchanged (λ scales by `1/σ`, and `⟨Ω, ξ̇⟩` only sees `σ⟨Ω, ξ̇⟩` on the constraint).
+//! Conversely every smooth path `Ω_p(t)` on the energy level set is a motion: with
+//! `ξ̃ = 𝕀Ω̇_p − ad*_{Ω_p} 𝕀Ω_p` (the paper's singular control, section 5.1),
+//! `⟨Ω_p, ξ̃⟩ = dT/dt = 0`, so `ξ = σ ξ̃/|ξ̃|` keeps the constraint and drives exactly
+//! `Ω_p` wherever `ξ̃ ≠ 0`.
+//!
+//! The cost `C(Ω, Ω̇, ξ, ξ̇)` is continuous at `ξ = ξ̇ = 0` (for the paper's weights,
+//! `α/4 (|ξ|² − 1)² + β/2 |ξ̇|² → α/4`). So **any** motion from `Ω_a` to `Ω_b` on the level set
+//! — the projected segment, the projected desired path, the motion of a computed solution —
+//! is reached by the admissible controls `ξ_ε = ε ξ̂` (ξ̂ its unit control direction), whose
+//! cost tends, as `ε → 0`, to the cost of the motion alone with the control terms at `ξ = 0`:
+//! for the paper's cost `(α/4 + δ) T + γ/2 ∫|Ω − Ω_d|² + η/2 ∫|Ω̇|²`. The infimum of the cost
+//! over admissible controls is at most that, whatever `β`.
+//!
+//! Consequences, measured on the paper's own problem (the η = 0.01 case, free `b`): along the
+//! projected segment `Ω_a → Ω_b` in `b − a = 0.157` such a control costs `J ≈ 0.86` (checked
+//! independently: `scipy`'s `solve_ivp` of Suslov's equations with `ξ_ε`, `ε = 10⁻³`, reaches
+//! `Ω_b` to `1.4e-8`), against `J = 2.666` at the paper's `b = 9.84`. The extremals the
+//! homotopy computes are local minima among controls with `|ξ|` away from 0 (the second-order
+//! certificate certifies exactly that); the problem's infimum can lie lower, approached with
+//! `|ξ| → 0`, where the optimality system (which divides by `⟨ξ, 𝕀⁻¹ξ⟩`) is singular. When
+//! the time weight is the only term of `C` that does not vanish with the motion's speed
+//! (`η = 0`), `J → 0` as `b → a`: a free-time problem then has no optimal `b` at all.
+//! This is why the homotopy's branches collapse (`|ξ| → 0`, [`super::solve`]): the cost
+//! decreases toward this regime.
+//!
+//! # What is computed
+//!
+//! [`along_path`], [`along_segment`], [`along_desired`] and [`along_solution`] evaluate one
+//! control `ξ_ε` ([`COLLAPSE_EPS`]) at given weights: its cost by composite 5-point
+//! Gauss–Legendre quadrature (on [`PANELS`] and twice as many panels; the difference is the
+//! reported quadrature error), and its motion re-integrated from the motion's own states
+//! (the generated `suslov_omega_dot` driven by `ξ_ε`, in windows of about one radian of
+//! rotation as the solution checks do): a control whose re-integration departs from its
+//! motion by more than [`REINTEGRATION_TOL`] (relative) is refused, not reported.
+//! [`best_span`] scans the terminal time for the projected segment (free-time problems).
+
+use serde::Serialize;
+
+use crate::ivp::{integrate, IvpOptions};
+use crate::model::Model;
+
+use super::checks::{GAUSS5, REINTEGRATION_WINDOW_ANGLE};
+use super::path::{projected_segment, Path, PathError, Projected};
+use super::problem::Problem;
+use super::solve::LieSolution;
+
+/// The largest `|ξ|` of the controls evaluated; each control takes the cheapest of
+/// [`EPS_STEPS`] sizes from this down by factors of 10 (its cost is within `O(ε²)` of the limit
+/// `ε → 0`, but the `ε²` term grows like `1/(b − a)` on short horizons).
+pub const COLLAPSE_EPS: f64 = 1e-3;
+
+/// How many sizes `ε = COLLAPSE_EPS · 10^-k` are tried per control.
+pub const EPS_STEPS: i32 = 4;
+
+/// Panels of the composite Gauss–Legendre rule (and twice as many for the error estimate).
+pub const PANELS: usize = 400;
+
+/// Largest relative departure `max |Ω_ivp − Ω_motion| / max |Ω|` of a control's re-integrated
+/// motion from the motion it was built for.
+pub const REINTEGRATION_TOL: f64 = 1e-6;
+
+/// The spans of [`best_span`], as powers of two times the problem's `b_p − a`.
+pub const SPAN_EXPONENTS: std::ops::RangeInclusive<i32> = -16..=6;
+
+/// Which motion a collapsed control follows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Motion {
+    /// The radial projection onto the level set of the segment `Ω_a → Ω_b`.
+    ProjectedSegment,
+    /// The desired path projected onto the level set (when it joins `Ω_a` to `Ω_b`).
+    DesiredPath,
+    /// The motion of a computed solution (its `ξ` scaled to `ε ξ/|ξ|`).
+    Solution,
+}
+
+impl Motion {
+    /// Words for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Motion::ProjectedSegment => "the projected segment from Omega_a to Omega_b",
+            Motion::DesiredPath => "the projected desired path",
+            Motion::Solution => "the computed solution's motion",
+        }
+    }
+}
+
+/// One admissible control `ξ = ε ξ̂` along a motion, at given weights.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub struct CollapsedControl {
+    /// The motion it drives.
+    pub motion: Motion,
+    /// `b − a`.
+    pub span: f64,
+    /// `|ξ|`.
+    pub eps: f64,
+    /// Its cost `∫ C dt` (the time weight's `δ (b − a)` included).
+    pub cost: f64,
+    /// `|J_PANELS − J_2PANELS|`.
+    pub quadrature_error: f64,
+    /// `max |Ω_ivp − Ω_motion| / max |Ω|` of the windowed re-integration.
+    pub reintegration_error: f64,
+}
+
+/// Why no collapsed control was evaluated.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum CollapseError {
+    /// The model's constraint has a nonzero value: scaling `ξ` changes the motion.
+    #[error("the constraint value is not zero: scaling xi changes the motion")]
+    ConstraintValue,
+    /// The motion's control direction is undefined (`ξ̃ = 0`, or `ξ = 0` on a solution).
+    #[error("the motion's control direction is undefined at t = {t} (xi~ or xi vanishes)")]
+    SingularDirection {
+        /// Where.
+        t: f64,
+    },
+    /// The motion is not available (a path that cannot be built, e.g. opposite end points).
+    #[error("no such motion: {0}")]
+    Path(#[from] PathError),
+    /// The desired path does not join `Ω_a` to `Ω_b` over the span.
+    #[error("the desired path does not join Omega_a to Omega_b over [a, a + {span}]")]
+    DesiredMissesEnds {
+        /// `b − a`.
+        span: f64,
+    },
+    /// The re-integrated motion departs from the motion.
+    #[error(
+        "the re-integration departs from the motion by {error:e} (relative; allowed {REINTEGRATION_TOL:e})"
+    )]
+    Reintegration {
+        /// The departure (NaN when the integration failed).
+        error: f64,
+    },
+}
+
+fn norm(v: &[f64]) -> f64 {
+    v.iter().map(|x| x * x).sum::<f64>().sqrt()
+}
+
+/// `z = [Ω, ξ, ξ̇]` of the control of size `ε` (second argument) at time `t` (first), or the
+/// time where its direction is undefined.
+type Control<'a> = dyn Fn(f64, f64, &mut [f64]) -> Result<(), CollapseError> + 'a;
+
+/// `∫ C dt` of `control` over `[t0, t0 + span]` on `panels` panels.
+fn cost_on<M: Model>(
+    params: &[f64],
+    desired: &dyn Path,
+    (t0, span): (f64, f64),
+    panels: usize,
+    eps: f64,
+    control: &Control<'_>,
+) -> Result<f64, CollapseError> {
+    let n = M::DIM;
+    let mut z = vec![0.0; 3 * n];
+    let mut od = vec![0.0; n];
+    let (mut l_z, mut l_d) = (vec![0.0; 3 * n], vec![0.0; n]);
+    let h = span / panels as f64;
+    let mut total = 0.0;
+    for k in 0..panels {
+        let left = t0 + k as f64 * h;
+        for (node, weight) in GAUSS5 {
+            let t = left + node * h;
+            control(t, eps, &mut z)?;
+            desired.value_into(t, &mut od);
+            let c = M::direct_cost(&z, params, &od, &mut l_z, &mut l_d);
+            if !c.is_finite() {
+                return Err(CollapseError::SingularDirection { t });
+            }
+            total += weight * h * c;
+        }
+    }
+    Ok(total)
+}
+
+/// The windowed re-integration of `control`'s motion: the IVP of the generated
+/// `suslov_omega_dot` driven by its `ξ, ξ̇`, restarted from the motion at each window's start
+/// (about [`REINTEGRATION_WINDOW_ANGLE`] of rotation per window), compared at 8 points of
+/// each window. Returns `max |Ω_ivp − Ω_motion| / max |Ω|`.
+fn reintegrate<M: Model>(
+    params: &[f64],
+    (t0, span): (f64, f64),
+    eps: f64,
+    control: &Control<'_>,
+) -> Result<f64, CollapseError> {
+    let n = M::DIM;
+    let mut z = vec![0.0; 3 * n];
+    // The rotation: ∫|Ω| dt on a coarse grid, for the window count.
+    let mut omega_max: f64 = 0.0;
+    let mut angle = 0.0;
+    let coarse = 256;
+    for k in 0..=coarse {
+        control(t0 + span * k as f64 / coarse as f64, eps, &mut z)?;
+        let size = norm(&z[..n]);
+        omega_max = omega_max.max(size);
+        angle += size * span / coarse as f64;
+    }
+    let windows = ((angle / REINTEGRATION_WINDOW_ANGLE).ceil() as usize).clamp(1, 4096);
+    let options = IvpOptions {
+        rtol: 1e-11,
+        atol: 1e-12 * omega_max.max(1.0),
+        ..IvpOptions::default()
+    };
+    let rhs = |t: f64, om: &[f64], out: &mut [f64]| {
+        let mut x = vec![0.0; 3 * n];
+        if control(t, eps, &mut x).is_err() {
+            out.iter_mut().for_each(|v| *v = f64::NAN);
+            return;
+        }
+        x[..n].copy_from_slice(om);
+        M::suslov_omega_dot(&x, params, out);
+    };
+    let width = span / windows as f64;
+    let mut worst: f64 = 0.0;
+    for w in 0..windows {
+        let (a, b) = (t0 + w as f64 * width, t0 + (w + 1) as f64 * width);
+        let times: Vec<f64> = (1..=8).map(|k| a + (b - a) * k as f64 / 8.0).collect();
+        control(a, eps, &mut z)?;
+        let start = z[..n].to_vec();
+        let sol = integrate(&rhs, (a, b), &start, &times, &options)
+            .map_err(|_| CollapseError::Reintegration { error: f64::NAN })?;
+        for (t, om) in times.iter().zip(&sol.y) {
+            control(*t, eps, &mut z)?;
+            let d: Vec<f64> = om.iter().zip(&z[..n]).map(|(p, q)| p - q).collect();
+            worst = worst.max(norm(&d) / omega_max);
+        }
+    }
+    Ok(worst)
+}
+
+/// Cost, quadrature error and re-integration of one control.
+fn evaluate<M: Model>(
+    params: &[f64],
+    desired: &dyn Path,
+    (t0, span): (f64, f64),
+    motion: Motion,
+    control: &Control<'_>,
+) -> Result<CollapsedControl, CollapseError> {
+    let mut best: Option<(f64, f64)> = None;
+    for k in 0..EPS_STEPS {
+        let eps = COLLAPSE_EPS * 10f64.powi(-k);
+        let cost = cost_on::<M>(params, desired, (t0, span), PANELS, eps, control)?;
+        if best.is_none_or(|(_, c)| cost < c) {
+            best = Some((eps, cost));
+        }
+    }
+    let (eps, coarse) = best.expect("EPS_STEPS > 0");
+    let fine = cost_on::<M>(params, desired, (t0, span), 2 * PANELS, eps, control)?;
+    let error = reintegrate::<M>(params, (t0, span), eps, control)?;
+    if !(error <= REINTEGRATION_TOL) {
+        return Err(CollapseError::Reintegration { error });
+    }
+    Ok(CollapsedControl {
+        motion,
+        span,
+        eps,
+        cost: fine,
+        quadrature_error: (fine - coarse).abs(),
+        reintegration_error: error,
+    })
+}
+
+/// The control `ξ = ε ξ̃/|ξ̃|` that drives `path` (on the level set) over `[a, a + span]`, at
+/// the constants `params` (the problem's `Ω_d`).
+pub fn along_path<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    path: &dyn Path,
+    span: f64,
+    motion: Motion,
+) -> Result<CollapsedControl, CollapseError> {
+    if !crate::model::constraint_value_vanishes::<M>(params) {
+        return Err(CollapseError::ConstraintValue);
+    }
+    let n = M::DIM;
+    let control = |t: f64, eps: f64, z: &mut [f64]| -> Result<(), CollapseError> {
+        let mut jet = vec![0.0; 4 * n];
+        path.jet_into(t, &mut jet);
+        let mut xi = vec![0.0; 2 * n];
+        M::singular_control(&jet[..3 * n], params, &mut xi);
+        if !xi.iter().all(|v| v.is_finite()) {
+            return Err(CollapseError::SingularDirection { t });
+        }
+        z[..n].copy_from_slice(&jet[..n]);
+        for (k, v) in xi.iter().enumerate() {
+            z[n + k] = eps * v;
+        }
+        Ok(())
+    };
+    evaluate::<M>(
+        params,
+        &*problem.desired,
+        (problem.t0, span),
+        motion,
+        &control,
+    )
+}
+
+/// [`along_path`] on the projected segment `Ω_a → Ω_b` over `[a, a + span]`.
+pub fn along_segment<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    span: f64,
+) -> Result<CollapsedControl, CollapseError> {
+    let set = problem.level_set();
+    let path = projected_segment(
+        &set,
+        &problem.omega_a,
+        &problem.omega_b,
+        problem.t0,
+        problem.t0 + span,
+        super::problem::ENERGY_REL_TOL,
+    )?;
+    along_path(problem, params, &path, span, Motion::ProjectedSegment)
+}
+
+/// [`along_path`] on the desired path projected onto the level set, when it starts at `Ω_a`
+/// and ends at `Ω_b` at `a + span` (relative 1e-6).
+pub fn along_desired<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    span: f64,
+) -> Result<CollapsedControl, CollapseError> {
+    let set = problem.level_set();
+    let path = Projected::new(problem.desired.clone(), set)?;
+    let n = M::DIM;
+    let mut v = vec![0.0; n];
+    let scale = norm(&problem.omega_a);
+    for (t, target) in [
+        (problem.t0, &problem.omega_a),
+        (problem.t0 + span, &problem.omega_b),
+    ] {
+        path.value_into(t, &mut v);
+        let d: Vec<f64> = v.iter().zip(target).map(|(p, q)| p - q).collect();
+        if !(norm(&d) <= 1e-6 * scale) {
+            return Err(CollapseError::DesiredMissesEnds { span });
+        }
+    }
+    along_path(problem, params, &path, span, Motion::DesiredPath)
+}
+
+/// The motion of `sol` driven by `ξ = ε ξ/|ξ|` (the same motion), at the constants `params`
+/// (e.g. the target weights of a problem whose homotopy stopped at `sol`).
+pub fn along_solution<M: Model>(
+    sol: &LieSolution<M>,
+    params: &[f64],
+) -> Result<CollapsedControl, CollapseError> {
+    if !crate::model::constraint_value_vanishes::<M>(params) {
+        return Err(CollapseError::ConstraintValue);
+    }
+    let n = M::DIM;
+    let control = |t: f64, eps: f64, z: &mut [f64]| -> Result<(), CollapseError> {
+        let mut y = vec![0.0; M::N_STATE];
+        sol.state_into(t, &mut y);
+        let (xi, xid) = (&y[M::XI], &y[M::XIDOT]);
+        let size = norm(xi);
+        if !(size > 0.0 && size.is_finite()) {
+            return Err(CollapseError::SingularDirection { t });
+        }
+        // ê = ξ/|ξ|, ê' = (ξ' − ê⟨ê, ξ'⟩)/|ξ|.
+        let along: f64 = xi.iter().zip(xid).map(|(a, b)| a * b).sum::<f64>() / size;
+        z[..n].copy_from_slice(&y[M::OMEGA]);
+        for k in 0..n {
+            let e = xi[k] / size;
+            z[n + k] = eps * e;
+            z[2 * n + k] = eps * (xid[k] - e * along) / size;
+        }
+        Ok(())
+    };
+    evaluate::<M>(
+        params,
+        &*sol.problem.desired,
+        (sol.problem.t0, sol.t_span),
+        Motion::Solution,
+        &control,
+    )
+}
+
+/// [`along_segment`] at the spans `2^k (b_p − a)`, `k` in [`SPAN_EXPONENTS`], at the problem's
+/// constants; the spans where no control could be evaluated are left out.
+pub fn best_span<M: Model>(problem: &Problem<M>, span_p: f64) -> Vec<CollapsedControl> {
+    SPAN_EXPONENTS
+        .filter_map(|k| along_segment(problem, problem.params(), span_p * 2f64.powi(k)).ok())
+        .collect()
+}
+
+/// The cheapest of `controls`.
+pub fn cheapest(controls: &[CollapsedControl]) -> Option<CollapsedControl> {
+    controls
+        .iter()
+        .copied()
+        .min_by(|a, b| a.cost.total_cmp(&b.cost))
+}
+
+/// Whether `control` costs less than `cost`, beyond the quadrature errors (`quadrature` for
+/// `cost`) and the control's own `O(ε²)` terms at a relative 1e-6.
+pub fn undercuts(control: &CollapsedControl, cost: f64, quadrature: f64) -> bool {
+    control.cost + 10.0 * (control.quadrature_error + quadrature) + 1e-6 * cost.abs() < cost
+}
