@@ -226,7 +226,7 @@ fn reintegrate<M: Model>(
         let times: Vec<f64> = (1..=8).map(|k| a + (b - a) * k as f64 / 8.0).collect();
         control(a, eps, &mut z)?;
         let start = z[..n].to_vec();
-        let sol = integrate(&rhs, (a, b), &start, &times, &options)
+        let sol = integrate(rhs, (a, b), &start, &times, &options)
             .map_err(|_| CollapseError::Reintegration { error: f64::NAN })?;
         for (t, om) in times.iter().zip(&sol.y) {
             control(*t, eps, &mut z)?;
@@ -256,7 +256,7 @@ fn evaluate<M: Model>(
     let (eps, coarse) = best.expect("EPS_STEPS > 0");
     let fine = cost_on::<M>(params, desired, (t0, span), 2 * PANELS, eps, control)?;
     let error = reintegrate::<M>(params, (t0, span), eps, control)?;
-    if !(error <= REINTEGRATION_TOL) {
+    if error.is_nan() || error > REINTEGRATION_TOL {
         return Err(CollapseError::Reintegration { error });
     }
     Ok(CollapsedControl {
@@ -341,7 +341,8 @@ pub fn along_desired<M: Model>(
     ] {
         path.value_into(t, &mut v);
         let d: Vec<f64> = v.iter().zip(target).map(|(p, q)| p - q).collect();
-        if !(norm(&d) <= 1e-6 * scale) {
+        let miss = norm(&d);
+        if miss.is_nan() || miss > 1e-6 * scale {
             return Err(CollapseError::DesiredMissesEnds { span });
         }
     }

@@ -2184,7 +2184,10 @@ fn warm_solve<M: Model>(
             warm.states.len()
         )));
     }
-    if times.windows(2).any(|w| !(w[1] > w[0])) || warm.states.iter().any(|v| !v.is_finite()) {
+    if times.iter().any(|t| !t.is_finite())
+        || times.windows(2).any(|w| w[1] <= w[0])
+        || warm.states.iter().any(|v| !v.is_finite())
+    {
         return Err(bad(
             "its times must increase strictly and its states be finite numbers".into(),
         ));
