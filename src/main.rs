@@ -524,7 +524,7 @@ fn case_line(c: &suslov::report::CaseSummary) -> String {
         .and_then(|v| v.as_u64())
         .map(|p| format!(" on {p} points"))
         .unwrap_or_default();
-    format!(
+    let mut line = format!(
         "case {}: {}; b = {}, cost = {}, max |<Omega, xi> - c| = {:.1e}{grid}, {} mesh nodes, {} s",
         c.name,
         c.status,
@@ -533,7 +533,22 @@ fn case_line(c: &suslov::report::CaseSummary) -> String {
         c.max_abs_constraint,
         c.mesh_nodes,
         significant(c.wall_seconds, 2)
-    )
+    );
+    // A verified extremal that a control with a vanishing xi undercuts is a local minimum
+    // only (suslov::lie::collapse): say so under the result.
+    let collapse = c.extra.get("collapse");
+    let undercut = collapse
+        .and_then(|v| v.get("undercuts"))
+        .and_then(|v| v.as_bool());
+    if c.status == "converged" && undercut == Some(true) {
+        if let Some(sentence) = collapse
+            .and_then(|v| v.get("sentence"))
+            .and_then(|v| v.as_str())
+        {
+            line.push_str(&format!("\n  local minimum only: {sentence}"));
+        }
+    }
+    line
 }
 
 /// `solve FILE` without `--out`: `out/<FILE's stem>` (beside `paper`'s default `out`, never

@@ -136,6 +136,25 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
     assert!(names.contains(&"joint weights") && names.contains(&"beta first"));
     assert_eq!(names[1], FIXED_FROM_ABOVE, "{names:?}");
     assert!(partial.routes.iter().all(|r| r.stopped.is_some()));
+    // Where the branch heads (src/lie/collapse.rs, docs/collapse.md): a control with a
+    // vanishing xi, at the target weights and the fixed b, costs less than the last
+    // solution's own control there; the direct method (bench/casadi_direct.py) finds the
+    // problem's infimum in that limit (44.27118405, max |xi| 3e-6), no regular minimum.
+    let found = partial
+        .collapse
+        .as_ref()
+        .expect("collapse evidence on a fixed-time stop");
+    eprintln!("{found:?}");
+    assert!(found.undercuts && !found.no_optimal_time, "{found:?}");
+    assert!(
+        reason.contains("an admissible control with |xi|"),
+        "{reason}"
+    );
+    assert!(found.least.reintegration_error < 1e-6, "{found:?}");
+    // Every control tried costs at least the infimum the direct method found (44.2712).
+    for c in &found.controls {
+        assert!(c.cost > 44.27, "{c:?}");
+    }
 }
 
 /// Issue #12's free-time file whose delta stage stops at 0.020 (target 1.22): the fixed-time
@@ -192,6 +211,22 @@ fn a_stalled_time_stage_is_explained_by_the_fixed_time_value_function() {
     let last = partial.routes.last().expect("routes");
     assert_eq!(last.route, TIME_SCAN);
     assert!(last.stopped.is_some());
+    // Controls with a vanishing xi along the projected segment cost less than every
+    // fixed-time extremal of the scan, at a much shorter b - a; with eta > 0 their cost grows
+    // again as b -> a, so the stop does not claim that no optimal time exists.
+    let found = partial
+        .collapse
+        .as_ref()
+        .expect("collapse evidence on a free-time stop");
+    eprintln!("{found:?}");
+    let least_scan = solved.iter().map(|s| s.1).fold(f64::INFINITY, f64::min);
+    assert_eq!(found.compared_cost, least_scan);
+    assert!(found.undercuts && !found.no_optimal_time, "{found:?}");
+    assert!(found.least.span < solved[0].0, "{found:?}");
+    assert!(
+        reason.contains("less than every fixed-time extremal"),
+        "{reason}"
+    );
 }
 
 /// The paper's eta = 1 problem with a wide sigmoid (`width = 0.1`): the desired path leaves

@@ -340,6 +340,16 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
             },
         );
     }
+    // Controls with a vanishing xi (lie::collapse): on a stop, the solver's evidence; on a
+    // verified extremal, whether one costs less (then the extremal is a local minimum only).
+    let collapse = match &sol.collapse {
+        Some(found) => Some(found.clone()),
+        None if verified => lie::collapse::for_solution(sol, d.cost, 0.0),
+        None => None,
+    };
+    if let Some(found) = collapse {
+        c.extra.insert("collapse".into(), serde_json::json!(found));
+    }
     if !sol.time_scan.is_empty() {
         c.extra.insert(
             "time_scan".into(),

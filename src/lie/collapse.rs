@@ -37,8 +37,8 @@
 //!
 //! [`along_path`], [`along_segment`], [`along_desired`] and [`along_solution`] evaluate one
 //! control `ξ_ε` ([`COLLAPSE_EPS`]) at given weights: its cost by composite 5-point
-//! Gauss–Legendre quadrature (on [`PANELS`] and twice as many panels; the difference is the
-//! reported quadrature error), and its motion re-integrated from the motion's own states
+//! Gauss–Legendre quadrature (panels doubled from [`PANELS`] until two values agree; their
+//! difference is the reported quadrature error), and its motion re-integrated from the motion's own states
 //! (the generated `suslov_omega_dot` driven by `ξ_ε`, in windows of about one radian of
 //! rotation as the solution checks do): a control whose re-integration departs from its
 //! motion by more than [`REINTEGRATION_TOL`] (relative) is refused, not reported.
@@ -51,7 +51,7 @@ use crate::model::Model;
 
 use super::checks::{GAUSS5, REINTEGRATION_WINDOW_ANGLE};
 use super::path::{projected_segment, Path, PathError, Projected};
-use super::problem::Problem;
+use super::problem::{with_buffer, Problem};
 use super::solve::LieSolution;
 
 /// The largest `|ξ|` of the controls evaluated; each control takes the cheapest of
@@ -62,15 +62,22 @@ pub const COLLAPSE_EPS: f64 = 1e-3;
 /// How many sizes `ε = COLLAPSE_EPS · 10^-k` are tried per control.
 pub const EPS_STEPS: i32 = 4;
 
-/// Panels of the composite Gauss–Legendre rule (and twice as many for the error estimate).
-pub const PANELS: usize = 400;
+/// Panels of the composite Gauss–Legendre rule to start from; doubled (up to [`MAX_PANELS`])
+/// until two successive values agree to [`QUADRATURE_RTOL`].
+pub const PANELS: usize = 64;
+
+/// Cap on the panels of the quadrature.
+pub const MAX_PANELS: usize = 8192;
+
+/// Relative agreement (of `1 + |J|`) of two successive quadratures that ends the doubling.
+pub const QUADRATURE_RTOL: f64 = 1e-10;
 
 /// Largest relative departure `max |Ω_ivp − Ω_motion| / max |Ω|` of a control's re-integrated
 /// motion from the motion it was built for.
 pub const REINTEGRATION_TOL: f64 = 1e-6;
 
 /// The spans of [`best_span`], as powers of two times the problem's `b_p − a`.
-pub const SPAN_EXPONENTS: std::ops::RangeInclusive<i32> = -16..=6;
+pub const SPAN_EXPONENTS: std::ops::RangeInclusive<i32> = -16..=3;
 
 /// Which motion a collapsed control follows.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -106,7 +113,7 @@ pub struct CollapsedControl {
     pub eps: f64,
     /// Its cost `∫ C dt` (the time weight's `δ (b − a)` included).
     pub cost: f64,
-    /// `|J_PANELS − J_2PANELS|`.
+    /// The difference of the last two quadratures (`P` and `2P` panels).
     pub quadrature_error: f64,
     /// `max |Ω_ivp − Ω_motion| / max |Ω|` of the windowed re-integration.
     pub reintegration_error: f64,
@@ -161,9 +168,9 @@ fn cost_on<M: Model>(
     control: &Control<'_>,
 ) -> Result<f64, CollapseError> {
     let n = M::DIM;
-    let mut z = vec![0.0; 3 * n];
+    let mut z = vec![0.0; M::KAPPA.start];
     let mut od = vec![0.0; n];
-    let (mut l_z, mut l_d) = (vec![0.0; 3 * n], vec![0.0; n]);
+    let (mut l_z, mut l_d) = (vec![0.0; M::KAPPA.start], vec![0.0; n]);
     let h = span / panels as f64;
     let mut total = 0.0;
     for k in 0..panels {
@@ -192,15 +199,14 @@ fn reintegrate<M: Model>(
     eps: f64,
     control: &Control<'_>,
 ) -> Result<f64, CollapseError> {
-    let n = M::DIM;
-    let mut z = vec![0.0; 3 * n];
+    let mut z = vec![0.0; M::KAPPA.start];
     // The rotation: ∫|Ω| dt on a coarse grid, for the window count.
     let mut omega_max: f64 = 0.0;
     let mut angle = 0.0;
     let coarse = 256;
     for k in 0..=coarse {
         control(t0 + span * k as f64 / coarse as f64, eps, &mut z)?;
-        let size = norm(&z[..n]);
+        let size = norm(&z[M::OMEGA]);
         omega_max = omega_max.max(size);
         angle += size * span / coarse as f64;
     }
@@ -211,13 +217,14 @@ fn reintegrate<M: Model>(
         ..IvpOptions::default()
     };
     let rhs = |t: f64, om: &[f64], out: &mut [f64]| {
-        let mut x = vec![0.0; 3 * n];
-        if control(t, eps, &mut x).is_err() {
-            out.iter_mut().for_each(|v| *v = f64::NAN);
-            return;
-        }
-        x[..n].copy_from_slice(om);
-        M::suslov_omega_dot(&x, params, out);
+        with_buffer(M::KAPPA.start, |x| {
+            if control(t, eps, x).is_err() {
+                out.iter_mut().for_each(|v| *v = f64::NAN);
+                return;
+            }
+            x[M::OMEGA].copy_from_slice(om);
+            M::suslov_omega_dot(x, params, out);
+        });
     };
     let width = span / windows as f64;
     let mut worst: f64 = 0.0;
@@ -225,16 +232,24 @@ fn reintegrate<M: Model>(
         let (a, b) = (t0 + w as f64 * width, t0 + (w + 1) as f64 * width);
         let times: Vec<f64> = (1..=8).map(|k| a + (b - a) * k as f64 / 8.0).collect();
         control(a, eps, &mut z)?;
-        let start = z[..n].to_vec();
+        let start = z[M::OMEGA].to_vec();
         let sol = integrate(rhs, (a, b), &start, &times, &options)
             .map_err(|_| CollapseError::Reintegration { error: f64::NAN })?;
         for (t, om) in times.iter().zip(&sol.y) {
             control(*t, eps, &mut z)?;
-            let d: Vec<f64> = om.iter().zip(&z[..n]).map(|(p, q)| p - q).collect();
+            let d: Vec<f64> = om.iter().zip(&z[M::OMEGA]).map(|(p, q)| p - q).collect();
             worst = worst.max(norm(&d) / omega_max);
         }
     }
     Ok(worst)
+}
+
+/// Whether a control's motion is re-integrated ([`reintegrate`]) or only its cost computed
+/// (the scan of [`best_span`], whose cheapest control is then re-integrated).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Check {
+    Reintegrate,
+    CostOnly,
 }
 
 /// Cost, quadrature error and re-integration of one control.
@@ -243,6 +258,7 @@ fn evaluate<M: Model>(
     desired: &dyn Path,
     (t0, span): (f64, f64),
     motion: Motion,
+    check: Check,
     control: &Control<'_>,
 ) -> Result<CollapsedControl, CollapseError> {
     let mut best: Option<(f64, f64)> = None;
@@ -253,12 +269,25 @@ fn evaluate<M: Model>(
             best = Some((eps, cost));
         }
     }
-    let (eps, coarse) = best.expect("EPS_STEPS > 0");
-    let fine = cost_on::<M>(params, desired, (t0, span), 2 * PANELS, eps, control)?;
-    let error = reintegrate::<M>(params, (t0, span), eps, control)?;
-    if error.is_nan() || error > REINTEGRATION_TOL {
-        return Err(CollapseError::Reintegration { error });
-    }
+    let (eps, mut coarse) = best.expect("EPS_STEPS > 0");
+    let mut panels = PANELS;
+    let fine = loop {
+        let fine = cost_on::<M>(params, desired, (t0, span), 2 * panels, eps, control)?;
+        if (fine - coarse).abs() <= QUADRATURE_RTOL * (1.0 + fine.abs()) || panels >= MAX_PANELS {
+            break fine;
+        }
+        (coarse, panels) = (fine, 2 * panels);
+    };
+    let error = match check {
+        Check::Reintegrate => {
+            let error = reintegrate::<M>(params, (t0, span), eps, control)?;
+            if error.is_nan() || error > REINTEGRATION_TOL {
+                return Err(CollapseError::Reintegration { error });
+            }
+            error
+        }
+        Check::CostOnly => f64::NAN,
+    };
     Ok(CollapsedControl {
         motion,
         span,
@@ -278,29 +307,44 @@ pub fn along_path<M: Model>(
     span: f64,
     motion: Motion,
 ) -> Result<CollapsedControl, CollapseError> {
+    path_control(problem, params, path, span, motion, Check::Reintegrate)
+}
+
+fn path_control<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    path: &dyn Path,
+    span: f64,
+    motion: Motion,
+    check: Check,
+) -> Result<CollapsedControl, CollapseError> {
     if !crate::model::constraint_value_vanishes::<M>(params) {
         return Err(CollapseError::ConstraintValue);
     }
     let n = M::DIM;
     let control = |t: f64, eps: f64, z: &mut [f64]| -> Result<(), CollapseError> {
-        let mut jet = vec![0.0; 4 * n];
-        path.jet_into(t, &mut jet);
-        let mut xi = vec![0.0; 2 * n];
-        M::singular_control(&jet[..3 * n], params, &mut xi);
-        if !xi.iter().all(|v| v.is_finite()) {
-            return Err(CollapseError::SingularDirection { t });
-        }
-        z[..n].copy_from_slice(&jet[..n]);
-        for (k, v) in xi.iter().enumerate() {
-            z[n + k] = eps * v;
-        }
-        Ok(())
+        with_buffer(6 * n, |buf| {
+            let (jet, xi) = buf.split_at_mut(4 * n);
+            path.jet_into(t, jet);
+            // The path's jet [Ω, Ω̇, Ω̈, Ω⃛]; the singular control takes its first three blocks
+            // and gives [ξ_p, ξ̇_p], the z-blocks XI and XIDOT.
+            M::singular_control(&jet[..3 * n], params, xi);
+            if !xi.iter().all(|v| v.is_finite()) {
+                return Err(CollapseError::SingularDirection { t });
+            }
+            z[M::OMEGA].copy_from_slice(&jet[..n]);
+            for (zk, v) in z[M::XI.start..M::XIDOT.end].iter_mut().zip(xi.iter()) {
+                *zk = eps * v;
+            }
+            Ok(())
+        })
     };
     evaluate::<M>(
         params,
         &*problem.desired,
         (problem.t0, span),
         motion,
+        check,
         &control,
     )
 }
@@ -311,6 +355,15 @@ pub fn along_segment<M: Model>(
     params: &[f64],
     span: f64,
 ) -> Result<CollapsedControl, CollapseError> {
+    segment_control(problem, params, span, Check::Reintegrate)
+}
+
+fn segment_control<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    span: f64,
+    check: Check,
+) -> Result<CollapsedControl, CollapseError> {
     let set = problem.level_set();
     let path = projected_segment(
         &set,
@@ -320,7 +373,14 @@ pub fn along_segment<M: Model>(
         problem.t0 + span,
         super::problem::ENERGY_REL_TOL,
     )?;
-    along_path(problem, params, &path, span, Motion::ProjectedSegment)
+    path_control(
+        problem,
+        params,
+        &path,
+        span,
+        Motion::ProjectedSegment,
+        check,
+    )
 }
 
 /// [`along_path`] on the desired path projected onto the level set, when it starts at `Ω_a`
@@ -360,38 +420,67 @@ pub fn along_solution<M: Model>(
     }
     let n = M::DIM;
     let control = |t: f64, eps: f64, z: &mut [f64]| -> Result<(), CollapseError> {
-        let mut y = vec![0.0; M::N_STATE];
-        sol.state_into(t, &mut y);
-        let (xi, xid) = (&y[M::XI], &y[M::XIDOT]);
-        let size = norm(xi);
-        if !(size > 0.0 && size.is_finite()) {
-            return Err(CollapseError::SingularDirection { t });
-        }
-        // ê = ξ/|ξ|, ê' = (ξ' − ê⟨ê, ξ'⟩)/|ξ|.
-        let along: f64 = xi.iter().zip(xid).map(|(a, b)| a * b).sum::<f64>() / size;
-        z[..n].copy_from_slice(&y[M::OMEGA]);
-        for k in 0..n {
-            let e = xi[k] / size;
-            z[n + k] = eps * e;
-            z[2 * n + k] = eps * (xid[k] - e * along) / size;
-        }
-        Ok(())
+        with_buffer(M::N_STATE, |y| {
+            sol.state_into(t, y);
+            let (xi, xid) = (&y[M::XI], &y[M::XIDOT]);
+            let size = norm(xi);
+            if !(size > 0.0 && size.is_finite()) {
+                return Err(CollapseError::SingularDirection { t });
+            }
+            // ê = ξ/|ξ|, ê' = (ξ' − ê⟨ê, ξ'⟩)/|ξ|.
+            let along: f64 = xi.iter().zip(xid).map(|(a, b)| a * b).sum::<f64>() / size;
+            z[M::OMEGA].copy_from_slice(&y[M::OMEGA]);
+            for k in 0..n {
+                let e = xi[k] / size;
+                z[M::XI.start + k] = eps * e;
+                z[M::XIDOT.start + k] = eps * (xid[k] - e * along) / size;
+            }
+            Ok(())
+        })
     };
     evaluate::<M>(
         params,
         &*sol.problem.desired,
         (sol.problem.t0, sol.t_span),
         Motion::Solution,
+        Check::Reintegrate,
         &control,
     )
 }
 
 /// [`along_segment`] at the spans `2^k (b_p − a)`, `k` in [`SPAN_EXPONENTS`], at the problem's
-/// constants; the spans where no control could be evaluated are left out.
+/// constants; the spans where no control could be evaluated are left out. Only the cheapest
+/// control's motion is re-integrated (the others have `reintegration_error` NaN: the same
+/// construction on the same path, at other speeds); if that fails, the next cheapest is tried.
 pub fn best_span<M: Model>(problem: &Problem<M>, span_p: f64) -> Vec<CollapsedControl> {
-    SPAN_EXPONENTS
-        .filter_map(|k| along_segment(problem, problem.params(), span_p * 2f64.powi(k)).ok())
-        .collect()
+    let params = problem.params();
+    let scan: Vec<CollapsedControl> = SPAN_EXPONENTS
+        .filter_map(|k| {
+            segment_control(problem, params, span_p * 2f64.powi(k), Check::CostOnly).ok()
+        })
+        .collect();
+    reintegrate_cheapest(scan, problem, params)
+}
+
+/// Re-integrate the cheapest control of `scan`; one whose re-integration fails is dropped and
+/// the next cheapest tried, so the cheapest control left is always re-integrated.
+fn reintegrate_cheapest<M: Model>(
+    mut scan: Vec<CollapsedControl>,
+    problem: &Problem<M>,
+    params: &[f64],
+) -> Vec<CollapsedControl> {
+    while let Some(i) = (0..scan.len()).min_by(|&i, &j| scan[i].cost.total_cmp(&scan[j].cost)) {
+        match along_segment(problem, params, scan[i].span) {
+            Ok(checked) => {
+                scan[i] = checked;
+                return scan;
+            }
+            Err(_) => {
+                scan.remove(i);
+            }
+        }
+    }
+    scan
 }
 
 /// The cheapest of `controls`.
@@ -406,4 +495,175 @@ pub fn cheapest(controls: &[CollapsedControl]) -> Option<CollapsedControl> {
 /// `cost`) and the control's own `O(ε²)` terms at a relative 1e-6.
 pub fn undercuts(control: &CollapsedControl, cost: f64, quadrature: f64) -> bool {
     control.cost + 10.0 * (control.quadrature_error + quadrature) + 1e-6 * cost.abs() < cost
+}
+
+/// What the controls of this module show about one case.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct CollapseEvidence {
+    /// Every control evaluated (the motions and spans tried).
+    pub controls: Vec<CollapsedControl>,
+    /// The cheapest of them.
+    pub least: CollapsedControl,
+    /// The cost it is compared with.
+    pub compared_cost: f64,
+    /// What that cost is (the extremal computed, the least fixed-time extremal of the
+    /// value-function scan, the last solution's control at the target weights).
+    pub compared_with: &'static str,
+    /// Whether [`Self::least`] costs less than that ([`undercuts`]).
+    pub undercuts: bool,
+    /// Free terminal time: the cheapest control is at the shortest span tried and the costs
+    /// fall toward it, so the infimum is approached as `b → a` and no optimal `b` exists.
+    pub no_optimal_time: bool,
+    /// The finding in words.
+    pub sentence: String,
+}
+
+/// The controls for `problem` at its own constants: for a free terminal time the projected
+/// segment over the spans of [`best_span`] around `span`, else the segment at `span`; the
+/// projected desired path at `span` when it joins the end points.
+fn candidates<M: Model>(problem: &Problem<M>, span: f64, free: bool) -> Vec<CollapsedControl> {
+    let mut controls = if free {
+        best_span(problem, span)
+    } else {
+        along_segment(problem, problem.params(), span)
+            .into_iter()
+            .collect()
+    };
+    controls.extend(along_desired(problem, problem.params(), span));
+    controls
+}
+
+/// Whether the cheapest of `controls` is the shortest span and the costs fall toward it over
+/// the five shortest spans.
+fn falls_to_shortest(controls: &[CollapsedControl], least: &CollapsedControl) -> bool {
+    let mut segment: Vec<&CollapsedControl> = controls
+        .iter()
+        .filter(|c| c.motion == Motion::ProjectedSegment)
+        .collect();
+    segment.sort_by(|a, b| a.span.total_cmp(&b.span));
+    segment.len() >= 5
+        && segment[0] == least
+        && segment[..5].windows(2).all(|w| w[0].cost < w[1].cost)
+}
+
+fn evidence(
+    controls: Vec<CollapsedControl>,
+    compared_cost: f64,
+    compared_with: &'static str,
+    quadrature: f64,
+    free: bool,
+) -> Option<CollapseEvidence> {
+    let least = cheapest(&controls)?;
+    let undercuts = undercuts(&least, compared_cost, quadrature);
+    let no_optimal_time = free && undercuts && falls_to_shortest(&controls, &least);
+    let sentence = if undercuts {
+        let mut s = format!(
+            "an admissible control with |xi| = {:.0e} along {} over b - a = {:.6} costs J = {:.6}, \
+             less than {compared_with} (J = {compared_cost:.6}; its motion re-integrated to \
+             within {:.1e}): the problem's infimum is at most that, approached as xi -> 0, \
+             where the optimality system is singular",
+            least.eps,
+            least.motion.describe(),
+            least.span,
+            least.cost,
+            least.reintegration_error
+        );
+        if no_optimal_time {
+            s.push_str(
+                "; the cost of such controls keeps falling as b -> a: no optimal terminal \
+                 time exists",
+            );
+        }
+        s
+    } else {
+        format!(
+            "no control with a vanishing xi tried costs less than {compared_with} (least: J = \
+             {:.6} along {} over b - a = {:.6}, against {compared_cost:.6})",
+            least.cost,
+            least.motion.describe(),
+            least.span
+        )
+    };
+    Some(CollapseEvidence {
+        controls,
+        least,
+        compared_cost,
+        compared_with,
+        undercuts,
+        no_optimal_time,
+        sentence,
+    })
+}
+
+/// The evidence for a computed extremal `sol` of cost `cost` (quadrature error `quadrature`):
+/// whether a control with a vanishing `ξ` costs less (then `sol` is a local minimum only).
+pub fn for_solution<M: Model>(
+    sol: &LieSolution<M>,
+    cost: f64,
+    quadrature: f64,
+) -> Option<CollapseEvidence> {
+    if !sol.problem.conserves_energy() {
+        return None;
+    }
+    let free = matches!(
+        sol.problem.terminal,
+        super::problem::TerminalTime::Free { .. }
+    );
+    let controls = candidates(&sol.problem, sol.t_span, free);
+    evidence(controls, cost, "the computed extremal", quadrature, free)
+}
+
+/// The cost of `sol`'s own control at the constants `params` (e.g. the target weights of a
+/// problem whose homotopy stopped at `sol`), by 5-point Gauss–Legendre on its mesh.
+pub fn cost_at<M: Model>(sol: &LieSolution<M>, params: &[f64]) -> f64 {
+    let bvp = super::problem::LieBvp::new(&sol.problem);
+    let mut y = vec![0.0; M::N_STATE];
+    let mut wd = vec![0.0; M::N_DESIRED];
+    let mut total = 0.0;
+    for w in sol.bvp.x.windows(2) {
+        let h = w[1] - w[0];
+        for (node, weight) in GAUSS5 {
+            let s = w[0] + node * h;
+            sol.bvp.eval_into(s, &mut y);
+            bvp.desired_at(sol.problem.t0 + s * sol.t_span, &mut wd);
+            total += weight * h * sol.t_span * M::cost_integrand(&y, params, &wd);
+        }
+    }
+    total
+}
+
+/// The evidence for a problem whose homotopy stopped at `partial`: the controls for `problem`
+/// (its target constants), and `partial`'s motion with a vanishing `ξ`, compared with the least
+/// verified fixed-time extremal of the value-function scan (`scan_least`) when there is one,
+/// else with `partial`'s own control at the target constants.
+pub fn for_stop<M: Model>(
+    problem: &Problem<M>,
+    partial: &LieSolution<M>,
+    scan_least: Option<f64>,
+) -> Option<CollapseEvidence> {
+    if !problem.conserves_energy() {
+        return None;
+    }
+    let free = matches!(problem.terminal, super::problem::TerminalTime::Free { .. });
+    let span = problem.terminal.initial() - problem.t0;
+    let mut controls = candidates(problem, span, free);
+    if !free {
+        controls.extend(along_solution(partial, problem.params()));
+    }
+    match scan_least {
+        Some(j) => evidence(
+            controls,
+            j,
+            "every fixed-time extremal of the value-function scan",
+            0.0,
+            free,
+        ),
+        None => evidence(
+            controls,
+            cost_at(partial, problem.params()),
+            "the last solution's control at the target weights",
+            0.0,
+            free,
+        ),
+    }
 }

@@ -373,6 +373,10 @@ pub struct LieSolution<M: Model> {
     /// problem stopped and every sample failed to lead to a free-time solution (the evidence;
     /// empty otherwise).
     pub time_scan: Vec<TimeSample>,
+    /// When the homotopy stopped: what admissible controls with a vanishing `ξ` cost at the
+    /// target weights ([`super::collapse::for_stop`]; `None` on a solution, or when not
+    /// computed).
+    pub collapse: Option<super::collapse::CollapseEvidence>,
 }
 
 impl<M: Model> std::fmt::Debug for LieSolution<M> {
@@ -776,6 +780,7 @@ impl<M: Model> Homotopy<'_, M> {
             tolerance: self.tolerance,
             routes: Vec::new(),
             time_scan: Vec::new(),
+            collapse: None,
         }
     }
 
@@ -1597,6 +1602,18 @@ pub fn solve<M: Model>(
                 reason.push_str("; ");
                 reason.push_str(&scan.finding);
                 partial.time_scan = scan.samples;
+            }
+            // What controls with a vanishing xi cost at the target weights: evidence that
+            // the branch heads where the optimality system is singular (lie::collapse).
+            let scan_least = partial
+                .time_scan
+                .iter()
+                .filter_map(|s| s.cost)
+                .min_by(f64::total_cmp);
+            partial.collapse = super::collapse::for_stop(problem, &partial, scan_least);
+            if let Some(found) = partial.collapse.as_ref().filter(|c| c.undercuts) {
+                reason.push_str("; ");
+                reason.push_str(&found.sentence);
             }
             if best_route != Route::DEFAULT.name {
                 reason.push_str(&format!(
