@@ -93,6 +93,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         seconds,
         check: None,
         route: None,
+        collapse: None,
     };
     let Some(status) = status else {
         return unexplained(format!("timeout after {} s", timeout.as_secs()), wall);
@@ -116,6 +117,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         seconds,
         check,
         route: corpus::last_route(&out),
+        collapse: corpus::collapse_flags(&out),
     }
 }
 
@@ -386,6 +388,33 @@ fn main() {
     let _ = writeln!(r, "| route | problems |\n|---|---|");
     for (k, c) in &solved_by {
         let _ = writeln!(r, "| {k} | {c} |");
+    }
+    let _ = writeln!(r);
+    // What the controls with a vanishing xi showed (summary.json's extra.collapse).
+    let mut collapse: BTreeMap<(&str, &str), usize> = BTreeMap::new();
+    for (p, o) in problems.iter().zip(&results) {
+        let kind = match (&o.verdict, p.fixed_time) {
+            (Verdict::Solved, _) => "solved + verified",
+            (Verdict::Explained { .. }, true) => "explained, fixed b",
+            (Verdict::Explained { .. }, false) => "explained, free b",
+            _ => "other",
+        };
+        let found = match o.collapse {
+            None => "not evaluated",
+            Some(f) if f.no_optimal_time => "undercut: no optimal b",
+            Some(f) if f.undercuts => "undercut",
+            Some(_) => "not undercut",
+        };
+        *collapse.entry((kind, found)).or_default() += 1;
+    }
+    let _ = writeln!(
+        r,
+        "Controls with a vanishing xi (`suslov::lie::collapse`; `undercut`: one costs less than \
+         the extremal, or than the stop's comparison):\n"
+    );
+    let _ = writeln!(r, "| problems | finding | count |\n|---|---|---|");
+    for ((kind, found), c) in &collapse {
+        let _ = writeln!(r, "| {kind} | {found} | {c} |");
     }
     let _ = writeln!(r);
     let _ = writeln!(r, "Explained stops by stage (or check):\n");

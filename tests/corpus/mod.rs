@@ -820,6 +820,28 @@ pub struct Outcome {
     /// The homotopy route of the solution (`summary.json`'s `routes`, the last one), if the
     /// summary lists one.
     pub route: Option<String>,
+    /// `summary.json`'s `extra.collapse` (`suslov::lie::collapse`): whether a control with a
+    /// vanishing xi undercuts the extremal or the stop, and whether it shows that no optimal
+    /// terminal time exists; `None` without that record.
+    pub collapse: Option<CollapseFlags>,
+}
+
+/// The two verdicts of `summary.json`'s `extra.collapse`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct CollapseFlags {
+    pub undercuts: bool,
+    pub no_optimal_time: bool,
+}
+
+/// `out/summary.json`'s `extra.collapse` flags, if recorded.
+pub fn collapse_flags(out: &Path) -> Option<CollapseFlags> {
+    let text = std::fs::read_to_string(out.join("summary.json")).ok()?;
+    let v: serde_json::Value = serde_json::from_str(&text).ok()?;
+    let c = &v["cases"][0]["extra"]["collapse"];
+    Some(CollapseFlags {
+        undercuts: c.get("undercuts")?.as_bool()?,
+        no_optimal_time: c.get("no_optimal_time")?.as_bool()?,
+    })
 }
 
 /// The last route in `out/summary.json` (the one that solved a solved case).
@@ -1014,5 +1036,6 @@ pub fn solve_and_classify(p: &CorpusProblem, work: &Path) -> Outcome {
         seconds,
         check,
         route: last_route(&out),
+        collapse: collapse_flags(&out),
     }
 }
