@@ -386,6 +386,137 @@ pub struct SolverSection {
     pub start: Option<String>,
     /// How many homotopy routes may be tried, the default included (1 to [`MAX_ROUTES`]).
     pub max_routes: Option<usize>,
+    /// A previous solution to start from: a `trajectory.csv` (or the directory of a previous
+    /// `suslov solve`, which holds one), relative to the problem file ([`read_warm_start`]).
+    pub start_from: Option<String>,
+}
+
+/// `solver.start_from`: the states of a previous solution, from a CSV whose header names the
+/// columns: `t` and the model's state names (`trajectory.csv` of `suslov solve`, or any CSV
+/// with those columns, e.g. a direct method's; extra columns are ignored). The costate
+/// columns (`kappa…` on so(3)) may be absent together (then 0: a direct method has none).
+/// `value` is a file, or a directory holding `trajectory.csv`, relative to `base_dir`. The
+/// times must increase strictly from `t0` (within 1e-9 relative); at least 2 rows; every
+/// value finite; a regular UTF-8 file of at most [`MAX_SAMPLES_FILE_BYTES`].
+pub(crate) fn read_warm_start(
+    base_dir: &Path,
+    value: &str,
+    state_names: &[&str],
+    costates: std::ops::Range<usize>,
+    t0: f64,
+) -> Result<std::sync::Arc<crate::lie::solve::WarmStart>, ConfigError> {
+    let field = "solver.start_from";
+    let bad = |message: String| ConfigError::Invalid {
+        field: field.into(),
+        message,
+    };
+    let mut path = base_dir.join(value);
+    if path.is_dir() {
+        path = path.join("trajectory.csv");
+    }
+    let shown = clip(&path.display().to_string());
+    let bytes = read_bounded(&path, MAX_SAMPLES_FILE_BYTES).map_err(|e| {
+        bad(match e {
+            ReadFailure::Io(e) => format!(
+                "cannot read {shown}: {e}; give a trajectory.csv (or the directory of a previous                  `suslov solve`), relative to the problem file"
+            ),
+            ReadFailure::File(p) => format!("{shown}: {p}"),
+        })
+    })?;
+    let text = decode(bytes, false).map_err(|p| bad(format!("{shown}: {p}")))?;
+    let mut lines = text
+        .lines()
+        .enumerate()
+        .filter(|(_, l)| !l.trim().is_empty() && !l.trim_start().starts_with('#'));
+    let (_, header) = lines
+        .next()
+        .ok_or_else(|| bad(format!("{shown} is empty; it needs a header line and rows")))?;
+    let columns: Vec<&str> = header.split(',').map(str::trim).collect();
+    let find = |name: &str| columns.iter().position(|c| *c == name);
+    let t_col = find("t").ok_or_else(|| {
+        bad(format!(
+            "{shown} has no column `t`; its header needs t and {}",
+            state_names.join(", ")
+        ))
+    })?;
+    let mut state_cols = Vec::with_capacity(state_names.len());
+    for (k, name) in state_names.iter().enumerate() {
+        state_cols.push(match find(name) {
+            Some(c) => Some(c),
+            None if costates.contains(&k) => None,
+            None => {
+                return Err(bad(format!(
+                    "{shown} has no column `{name}`; its header needs t and {} (the costates                      {} may be left out together)",
+                    state_names.join(", "),
+                    state_names[costates.clone()].join(", ")
+                )))
+            }
+        });
+    }
+    let given = costates
+        .clone()
+        .filter(|k| state_cols[*k].is_some())
+        .count();
+    if given != 0 && given != costates.len() {
+        return Err(bad(format!(
+            "{shown} has some of the costate columns {} but not all; give all or none",
+            state_names[costates.clone()].join(", ")
+        )));
+    }
+    let (mut times, mut states) = (Vec::new(), Vec::new());
+    for (i, line) in lines {
+        let cells: Vec<&str> = line.split(',').map(str::trim).collect();
+        if cells.len() != columns.len() {
+            return Err(bad(format!(
+                "{shown} line {}: {} fields, the header has {}",
+                i + 1,
+                cells.len(),
+                columns.len()
+            )));
+        }
+        let number = |c: usize| -> Result<f64, ConfigError> {
+            match cells[c].parse::<f64>() {
+                Ok(x) if x.is_finite() => Ok(x),
+                _ => Err(bad(format!(
+                    "{shown} line {}: column `{}` is {:?}, not a finite number",
+                    i + 1,
+                    columns[c],
+                    clip(cells[c])
+                ))),
+            }
+        };
+        times.push(number(t_col)?);
+        for c in &state_cols {
+            states.push(match c {
+                Some(c) => number(*c)?,
+                None => 0.0,
+            });
+        }
+    }
+    if times.len() < 2 {
+        return Err(bad(format!(
+            "{shown} has {} rows; it needs at least 2",
+            times.len()
+        )));
+    }
+    if let Some(w) = times.windows(2).position(|w| w[1] <= w[0]) {
+        return Err(bad(format!(
+            "{shown}: t must increase strictly (row {} has t = {}, the next {})",
+            w + 1,
+            times[w],
+            times[w + 1]
+        )));
+    }
+    if (times[0] - t0).abs() > 1e-9 * (1.0 + t0.abs()) {
+        return Err(bad(format!(
+            "{shown} starts at t = {}, the problem at boundary.t0 = {t0}; a warm start must              start where the problem does",
+            times[0]
+        )));
+    }
+    Ok(std::sync::Arc::new(crate::lie::solve::WarmStart {
+        times,
+        states,
+    }))
 }
 
 /// Cap on `solver.max_routes`: every route listed by `lie::solve::alternatives` after the
@@ -1842,7 +1973,17 @@ impl ProblemFile {
             }
         }
 
-        let options = self.solve_options(beta, gamma)?;
+        let mut options = self.solve_options(beta, gamma)?;
+        if let Some(from) = self.solver.as_ref().and_then(|s| s.start_from.as_deref()) {
+            use crate::model::generated as g;
+            options.warm_start = Some(read_warm_start(
+                base_dir,
+                from,
+                &g::STATE_NAMES,
+                g::KAPPA,
+                t0,
+            )?);
+        }
         let problem = SuslovProblem {
             inertia,
             weights: CostWeights {

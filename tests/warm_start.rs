@@ -128,3 +128,80 @@ fn an_unusable_warm_start_falls_back_to_the_homotopy_and_says_why() {
         .unwrap()
         .contains("2 times and 3 state values"));
 }
+
+/// `solver.start_from`: a problem file starts from a previous `suslov solve`'s output
+/// directory (its `trajectory.csv`, read by column names), skipping the homotopy.
+#[test]
+fn a_problem_file_starts_from_a_previous_result() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("warm_start_file");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(example("segment.toml")).unwrap();
+    // The example as it is, then gamma 1 -> 1.2 starting from its result.
+    let first = dir.join("first.toml");
+    std::fs::write(&first, &text).unwrap();
+    let out_first = dir.join("out_first");
+    let s = suslov::app::run_solve(&first, &out_first, &mut |_| {}).unwrap();
+    assert_eq!(s.cases[0].status, "converged");
+    let next_text =
+        text.replace("gamma = 1.0", "gamma = 1.2") + "\n[solver]\nstart_from = \"out_first\"\n";
+    let next = dir.join("next.toml");
+    std::fs::write(&next, &next_text).unwrap();
+    let s = suslov::app::run_solve(&next, &dir.join("out_next"), &mut |_| {}).unwrap();
+    let case = &s.cases[0];
+    assert_eq!(case.status, "converged");
+    let routes = case.extra["routes"].as_array().unwrap();
+    assert_eq!(routes.len(), 1, "{routes:?}");
+    assert_eq!(routes[0]["route"], lie::solve::WARM_START_ROUTE);
+    assert!(routes[0]["stopped"].is_null());
+    // The same answer as the homotopy's.
+    let cold = dir.join("cold.toml");
+    std::fs::write(&cold, text.replace("gamma = 1.0", "gamma = 1.2")).unwrap();
+    let c = suslov::app::run_solve(&cold, &dir.join("out_cold"), &mut |_| {}).unwrap();
+    let (bw, bc) = (case.terminal_time, c.cases[0].terminal_time);
+    assert!((bw - bc).abs() < 1e-7 * bc, "b: warm {bw}, cold {bc}");
+    assert!((case.cost - c.cases[0].cost).abs() < 1e-7 * c.cases[0].cost);
+}
+
+#[test]
+fn a_bad_start_from_is_an_error_that_names_the_key() {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("warm_start_bad");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let text = std::fs::read_to_string(example("segment.toml")).unwrap();
+    let error = |csv: Option<&str>| {
+        if let Some(csv) = csv {
+            std::fs::write(dir.join("start.csv"), csv).unwrap();
+        }
+        let path = dir.join("p.toml");
+        std::fs::write(
+            &path,
+            text.clone() + "\n[solver]\nstart_from = \"start.csv\"\n",
+        )
+        .unwrap();
+        config::load(&path).unwrap_err().to_string()
+    };
+    let missing = error(None);
+    assert!(
+        missing.contains("solver.start_from") && missing.contains("cannot read"),
+        "{missing}"
+    );
+    let no_xi = error(Some("t,omega1,omega2,omega3\n0,3,0,0\n1,3,0,0\n"));
+    assert!(no_xi.contains("no column `xi1`"), "{no_xi}");
+    let late = error(Some(
+        "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3\n1,3,0,0,0,1,0,0,0,0\n2,3,0,0,0,1,0,0,0,0\n",
+    ));
+    assert!(late.contains("starts at t = 1"), "{late}");
+    let back = error(Some(
+        "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3\n0,3,0,0,0,1,0,0,0,0\n0,3,0,0,0,1,0,0,0,0\n",
+    ));
+    assert!(back.contains("increase strictly"), "{back}");
+    let nan = error(Some(
+        "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3\n0,3,0,0,0,1,0,0,0,0\n1,nan,0,0,0,1,0,0,0,0\n",
+    ));
+    assert!(nan.contains("not a finite number"), "{nan}");
+    let some_kappa = error(Some(
+        "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3,kappa1\n0,3,0,0,0,1,0,0,0,0,0\n1,3,0,0,0,1,0,0,0,0,0\n",
+    ));
+    assert!(some_kappa.contains("give all or none"), "{some_kappa}");
+}

@@ -639,11 +639,21 @@ pub(crate) fn build<M: Model>(
         .iter()
         .find(|w| w.role == HomotopyRole::Tracking)
         .map_or(0.0, |w| user[w.index]);
-    let options = ProblemFile {
+    let start_from = solver.as_ref().and_then(|s| s.start_from.clone());
+    let mut options = ProblemFile {
         solver,
         ..Default::default()
     }
     .solve_options(beta, gamma)?;
+    if let Some(from) = start_from {
+        options.warm_start = Some(super::read_warm_start(
+            base_dir,
+            &from,
+            M::STATE_NAMES,
+            M::KAPPA,
+            t0,
+        )?);
+    }
     let problem = Problem::<M>::new(&user, t0, omega_a, omega_b, terminal, desired)
         .map_err(|e| invalid("boundary", e.to_string()))?;
     Ok(LoadedModelProblem {

@@ -115,6 +115,8 @@ pub struct SolveOptions {
     /// How many routes [`solve`] may try, the default route included (1: only the default;
     /// see [`alternatives`]).
     pub max_routes: usize,
+    /// A previous solution to start from ([`solve_from`]); [`solve`] then tries it first.
+    pub warm_start: Option<Arc<WarmStart>>,
 }
 
 impl Default for SolveOptions {
@@ -127,6 +129,7 @@ impl Default for SolveOptions {
             max_nodes: 20_000,
             start: StartStrategy::Auto,
             max_routes: 7,
+            warm_start: None,
         }
     }
 }
@@ -1482,6 +1485,18 @@ pub fn solve<M: Model>(
     options: &SolveOptions,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
+    match &options.warm_start {
+        Some(warm) => solve_from(problem, options, &warm.clone(), events),
+        None => solve_cold(problem, options, events),
+    }
+}
+
+/// [`solve`] from the analytic start (no warm start).
+fn solve_cold<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
     let mut routes = Vec::new();
     let clock = std::time::Instant::now();
     let first = match solve_route(problem, options, &Route::DEFAULT, events) {
@@ -1826,6 +1841,7 @@ fn time_scan<M: Model>(
     let t_p = problem.terminal.initial() - problem.t0;
     let fixed_options = SolveOptions {
         max_routes: options.max_routes.min(2),
+        warm_start: None,
         ..options.clone()
     };
     let verified = |sol: LieSolution<M>, continued: bool| {
@@ -2121,8 +2137,9 @@ pub const WARM_START_ROUTE: &str = "warm start";
 /// Solve `problem` starting from `warm`, a solution of a nearby problem (other weights, end
 /// point, horizon): one BVP solve at the continuation tolerance from it, then the usual
 /// polish and a-posteriori checks, skipping the homotopy. When that fails, or the result does
-/// not pass its checks, [`solve`] runs from the analytic start as usual, and the warm start
-/// is listed first among the routes with the reason it stopped.
+/// not pass its checks, the homotopy runs from the analytic start as usual, and the warm start
+/// is listed first among the routes with the reason it stopped. [`solve`] calls this when
+/// [`SolveOptions::warm_start`] is set.
 pub fn solve_from<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -2156,7 +2173,7 @@ pub fn solve_from<M: Model>(
         after: &stopped,
     });
     let insert = |routes: &mut Vec<RouteReport>| routes.insert(0, warm_report.clone());
-    match solve(problem, options, events) {
+    match solve_cold(problem, options, events) {
         Ok(mut sol) => {
             insert(&mut sol.routes);
             Ok(sol)
