@@ -319,7 +319,10 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
     let (last, outcome) = finished.last().expect("events");
     assert_eq!(*last, "polish");
     match outcome {
-        StageOutcome::Stopped { reason } => assert!(reason.contains("MaxNodes"), "{reason}"),
+        StageOutcome::Stopped { reason } => assert!(
+            reason.contains("more mesh nodes than allowed") && reason.contains("solver.max_nodes"),
+            "{reason}"
+        ),
         StageOutcome::Completed => panic!("a failed polish reported as completed"),
     }
     assert!(finished[..finished.len() - 1]
