@@ -387,7 +387,8 @@ pub struct SolverSection {
     /// How many homotopy routes may be tried, the default included (1 to [`MAX_ROUTES`]).
     pub max_routes: Option<usize>,
     /// A previous solution to start from: a `trajectory.csv` (or the directory of a previous
-    /// `suslov solve`, which holds one), relative to the problem file ([`read_warm_start`]).
+    /// `suslov solve`, which holds one), relative to the problem file; read by
+    /// `read_warm_start` (columns by name, costates optional).
     pub start_from: Option<String>,
 }
 

@@ -30,7 +30,7 @@
 //! `|ξ| → 0`, where the optimality system (which divides by `⟨ξ, 𝕀⁻¹ξ⟩`) is singular. When
 //! the time weight is the only term of `C` that does not vanish with the motion's speed
 //! (`η = 0`), `J → 0` as `b → a`: a free-time problem then has no optimal `b` at all.
-//! This is why the homotopy's branches collapse (`|ξ| → 0`, [`super::solve`]): the cost
+//! This is why the homotopy's branches collapse (`|ξ| → 0`, [`super::solve`](mod@super::solve)): the cost
 //! decreases toward this regime.
 //!
 //! # What is computed
