@@ -54,13 +54,10 @@ use super::path::{projected_segment, Path, PathError, Projected};
 use super::problem::{with_buffer, Problem};
 use super::solve::LieSolution;
 
-/// The largest `|ξ|` of the controls evaluated; each control takes the cheapest of
-/// [`EPS_STEPS`] sizes from this down by factors of 10 (its cost is within `O(ε²)` of the limit
-/// `ε → 0`, but the `ε²` term grows like `1/(b − a)` on short horizons).
-pub const COLLAPSE_EPS: f64 = 1e-3;
-
-/// How many sizes `ε = COLLAPSE_EPS · 10^-k` are tried per control.
-pub const EPS_STEPS: i32 = 4;
+/// `|ξ|` of the controls evaluated: their cost is within `O(ε²)` of the limit `ε → 0` (the
+/// `ε²` terms grow like `1/(b − a)` on short horizons, so ε is small; the motion, and so the
+/// re-integration, does not depend on it: λ scales like `1/ε`, λξ not at all).
+pub const COLLAPSE_EPS: f64 = 1e-6;
 
 /// Panels of the composite Gauss–Legendre rule to start from; doubled (up to [`MAX_PANELS`])
 /// until two successive values agree to [`QUADRATURE_RTOL`].
@@ -261,15 +258,8 @@ fn evaluate<M: Model>(
     check: Check,
     control: &Control<'_>,
 ) -> Result<CollapsedControl, CollapseError> {
-    let mut best: Option<(f64, f64)> = None;
-    for k in 0..EPS_STEPS {
-        let eps = COLLAPSE_EPS * 10f64.powi(-k);
-        let cost = cost_on::<M>(params, desired, (t0, span), PANELS, eps, control)?;
-        if best.is_none_or(|(_, c)| cost < c) {
-            best = Some((eps, cost));
-        }
-    }
-    let (eps, mut coarse) = best.expect("EPS_STEPS > 0");
+    let eps = COLLAPSE_EPS;
+    let mut coarse = cost_on::<M>(params, desired, (t0, span), PANELS, eps, control)?;
     let mut panels = PANELS;
     let fine = loop {
         let fine = cost_on::<M>(params, desired, (t0, span), 2 * panels, eps, control)?;
