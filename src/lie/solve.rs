@@ -1332,25 +1332,7 @@ impl<M: Model> Homotopy<'_, M> {
                 progress,
             })
         })?;
-        let report = StageReport {
-            name,
-            parameter: "-",
-            from: 0.0,
-            to: 0.0,
-            steps: usize::from(sol.is_success()),
-            failures_recovered: 0,
-            newton_iterations: sol.stats.newton_iterations,
-            nodes: sol.num_nodes(),
-            seconds: clock.elapsed().as_secs_f64(),
-            folds: Vec::new(),
-            outcome: if sol.is_success() {
-                StageOutcome::Completed
-            } else {
-                StageOutcome::Stopped {
-                    reason: bvp_failure(sol.status),
-                }
-            },
-        };
+        let report = single_solve_report(name, &sol, clock.elapsed().as_secs_f64());
         if sol.is_success() {
             self.solution = sol;
             if self.fixed_span.is_none() {
@@ -2172,32 +2154,13 @@ pub fn solve_from<M: Model>(
         route: Route::DEFAULT.name,
         after: &stopped,
     });
-    let insert = |routes: &mut Vec<RouteReport>| routes.insert(0, warm_report.clone());
-    match solve_cold(problem, options, events) {
-        Ok(mut sol) => {
-            insert(&mut sol.routes);
-            Ok(sol)
-        }
-        Err(LieSolveError::StageFailed {
-            stage,
-            parameter,
-            reached,
-            target,
-            reason,
-            mut partial,
-        }) => {
-            insert(&mut partial.routes);
-            Err(LieSolveError::StageFailed {
-                stage,
-                parameter,
-                reached,
-                target,
-                reason,
-                partial,
-            })
-        }
-        Err(e) => Err(e),
+    let mut result = solve_cold(problem, options, events);
+    match &mut result {
+        Ok(sol) => sol.routes.insert(0, warm_report),
+        Err(LieSolveError::StageFailed { partial, .. }) => partial.routes.insert(0, warm_report),
+        Err(_) => {}
     }
+    result
 }
 
 /// The warm start's solves: the guess from `warm` rescaled to `s ∈ [0, 1]`, one solve at the
@@ -2274,25 +2237,7 @@ fn warm_solve<M: Model>(
             })
         },
     )?;
-    let report = StageReport {
-        name,
-        parameter: "-",
-        from: 0.0,
-        to: 0.0,
-        steps: usize::from(sol.is_success()),
-        failures_recovered: 0,
-        newton_iterations: sol.stats.newton_iterations,
-        nodes: sol.num_nodes(),
-        seconds: clock.elapsed().as_secs_f64(),
-        folds: Vec::new(),
-        outcome: if sol.is_success() {
-            StageOutcome::Completed
-        } else {
-            StageOutcome::Stopped {
-                reason: bvp_failure(sol.status),
-            }
-        },
-    };
+    let report = single_solve_report(name, &sol, clock.elapsed().as_secs_f64());
     events(&Event::StageFinished(&report));
     if !sol.is_success() {
         return Err(bad(format!(
@@ -2324,6 +2269,30 @@ fn warm_solve<M: Model>(
         tracking: problem.desired.clone(),
     };
     h.finish(options, &bvp_opts, events)
+}
+
+/// The stage record of one BVP solve (no continuation): a single step, completed or stopped
+/// with the solver's reason.
+fn single_solve_report(name: &'static str, sol: &Solution, seconds: f64) -> StageReport {
+    StageReport {
+        name,
+        parameter: "-",
+        from: 0.0,
+        to: 0.0,
+        steps: usize::from(sol.is_success()),
+        failures_recovered: 0,
+        newton_iterations: sol.stats.newton_iterations,
+        nodes: sol.num_nodes(),
+        seconds,
+        folds: Vec::new(),
+        outcome: if sol.is_success() {
+            StageOutcome::Completed
+        } else {
+            StageOutcome::Stopped {
+                reason: bvp_failure(sol.status),
+            }
+        },
+    }
 }
 
 /// The BVP solver's options for a solve at `tol`.
