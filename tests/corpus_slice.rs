@@ -98,7 +98,25 @@ fn slice_has_no_false_convergence_and_no_unexplained_failure() {
         match &o.verdict {
             Verdict::Solved => solved += 1,
             Verdict::Explained { key, reason } => {
-                assert!(!key.is_empty() && !reason.is_empty(), "{}", p.id)
+                assert!(!key.is_empty() && !reason.is_empty(), "{}", p.id);
+                // Every stage stop is compared with controls whose xi vanishes
+                // (suslov::lie::collapse); "no optimal b" only without the smoothing weight,
+                // where the argument of docs/collapse.md predicts it.
+                let flags = o
+                    .collapse
+                    .unwrap_or_else(|| panic!("{}: no extra.collapse", p.id));
+                let eta: f64 = p.toml.parse::<toml::Table>().unwrap()["cost"]["eta"]
+                    .as_float()
+                    .unwrap();
+                assert!(!flags.no_optimal_time || eta == 0.0, "{}: {flags:?}", p.id);
+                // Measured in the corpus run of 2026-11-26 (bench/README.md, session 11).
+                match p.id.as_str() {
+                    "short-016" => assert!(flags.no_optimal_time, "{}: {flags:?}", p.id),
+                    "issue12-001" => {
+                        assert!(flags.undercuts && !flags.no_optimal_time, "{flags:?}")
+                    }
+                    _ => {}
+                }
             }
             Verdict::Unexplained(m) => panic!("{}: unexplained failure: {m}\n{}", p.id, p.toml),
             Verdict::FalseConverged(f) => {
