@@ -419,7 +419,7 @@ pub(crate) fn read_warm_start(
     let bytes = read_bounded(&path, MAX_SAMPLES_FILE_BYTES).map_err(|e| {
         bad(match e {
             ReadFailure::Io(e) => format!(
-                "cannot read {shown}: {e}; give a trajectory.csv (or the directory of a previous                  `suslov solve`), relative to the problem file"
+                "cannot read {shown}: {e}; give a trajectory.csv (or the directory of a previous `suslov solve`), relative to the problem file"
             ),
             ReadFailure::File(p) => format!("{shown}: {p}"),
         })
@@ -447,7 +447,7 @@ pub(crate) fn read_warm_start(
             None if costates.contains(&k) => None,
             None => {
                 return Err(bad(format!(
-                    "{shown} has no column `{name}`; its header needs t and {} (the costates                      {} may be left out together)",
+                    "{shown} has no column `{name}`; its header needs t and {} (the costates {} may be left out together)",
                     state_names.join(", "),
                     state_names[costates.clone()].join(", ")
                 )))
@@ -510,7 +510,7 @@ pub(crate) fn read_warm_start(
     }
     if (times[0] - t0).abs() > 1e-9 * (1.0 + t0.abs()) {
         return Err(bad(format!(
-            "{shown} starts at t = {}, the problem at boundary.t0 = {t0}; a warm start must              start where the problem does",
+            "{shown} starts at t = {}, the problem at boundary.t0 = {t0}; a warm start must start where the problem does",
             times[0]
         )));
     }

@@ -188,10 +188,17 @@ fn a_bad_start_from_is_an_error_that_names_the_key() {
     );
     let no_xi = error(Some("t,omega1,omega2,omega3\n0,3,0,0\n1,3,0,0\n"));
     assert!(no_xi.contains("no column `xi1`"), "{no_xi}");
+    // One message, one line of words (no runs of spaces from wrapped source lines).
+    for m in [&missing, &no_xi] {
+        assert!(!m.contains("  "), "{m}");
+    }
     let late = error(Some(
         "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3\n1,3,0,0,0,1,0,0,0,0\n2,3,0,0,0,1,0,0,0,0\n",
     ));
-    assert!(late.contains("starts at t = 1"), "{late}");
+    assert!(
+        late.contains("starts at t = 1") && !late.contains("  "),
+        "{late}"
+    );
     let back = error(Some(
         "t,omega1,omega2,omega3,xi1,xi2,xi3,xidot1,xidot2,xidot3\n0,3,0,0,0,1,0,0,0,0\n0,3,0,0,0,1,0,0,0,0\n",
     ));

@@ -1468,15 +1468,25 @@ pub fn solve<M: Model>(
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     match &options.warm_start {
-        Some(warm) => solve_from(problem, options, &warm.clone(), events),
-        None => solve_cold(problem, options, events),
+        Some(warm) => solve_from(problem, options, warm, events),
+        None => solve_cold(problem, options, Evidence::Collapse, events),
     }
+}
+
+/// Whether a stop of [`solve_cold`] is compared with controls whose ξ vanishes
+/// ([`super::collapse::for_stop`]): for the caller's problem, not for the value-function
+/// scan's inner fixed-time solves, whose stops are only samples.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Evidence {
+    Collapse,
+    None,
 }
 
 /// [`solve`] from the analytic start (no warm start).
 fn solve_cold<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
+    evidence: Evidence,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     let mut routes = Vec::new();
@@ -1607,7 +1617,9 @@ fn solve_cold<M: Model>(
                 .iter()
                 .filter_map(|s| s.cost)
                 .min_by(f64::total_cmp);
-            partial.collapse = super::collapse::for_stop(problem, &partial, scan_least);
+            if evidence == Evidence::Collapse {
+                partial.collapse = super::collapse::for_stop(problem, &partial, scan_least);
+            }
             if let Some(found) = partial.collapse.as_ref().filter(|c| c.undercuts) {
                 reason.push_str("; ");
                 reason.push_str(&found.sentence);
@@ -1823,7 +1835,6 @@ fn time_scan<M: Model>(
     let t_p = problem.terminal.initial() - problem.t0;
     let fixed_options = SolveOptions {
         max_routes: options.max_routes.min(2),
-        warm_start: None,
         ..options.clone()
     };
     let verified = |sol: LieSolution<M>, continued: bool| {
@@ -1861,7 +1872,7 @@ fn time_scan<M: Model>(
     let own = |span: f64| {
         let mut fixed = problem.clone();
         fixed.terminal = TerminalTime::Fixed(problem.t0 + span);
-        match solve(&fixed, &fixed_options, &mut |_| {}) {
+        match solve_cold(&fixed, &fixed_options, Evidence::None, &mut |_| {}) {
             Ok(sol) => verified(sol, false),
             Err(e) => (
                 TimeSample {
@@ -2102,8 +2113,8 @@ fn free_from_fixed<M: Model>(
 }
 
 /// A previous solution to start from ([`solve_from`]): the states at increasing physical
-/// times from the problem's `t0` to the previous terminal time (any grid; the mesh nodes of
-/// the previous solve are best, as `collocation.csv` holds them).
+/// times from the problem's `t0` to the previous terminal time (any grid, e.g. the rows of a
+/// previous `trajectory.csv`, which `solver.start_from` reads).
 #[derive(Debug, Clone, PartialEq)]
 pub struct WarmStart {
     /// Times `t_0 < t_1 < … < t_m`, at least two.
@@ -2154,7 +2165,7 @@ pub fn solve_from<M: Model>(
         route: Route::DEFAULT.name,
         after: &stopped,
     });
-    let mut result = solve_cold(problem, options, events);
+    let mut result = solve_cold(problem, options, Evidence::Collapse, events);
     match &mut result {
         Ok(sol) => sol.routes.insert(0, warm_report),
         Err(LieSolveError::StageFailed { partial, .. }) => partial.routes.insert(0, warm_report),
