@@ -13,7 +13,9 @@
 //!
 //! [`run_solve`] does the same for one problem read from a TOML file ([`crate::config`]),
 //! writing `summary.json`, the trajectory and the figures directly into its directory, with
-//! a copy of the problem file as `problem.toml`.
+//! the input with every default filled in as `problem.toml` (and the files it names:
+//! [`config::resolved`]), so that `suslov solve DIR/problem.toml` repeats the run; `paper`
+//! writes one per case directory.
 //!
 //! [`run_certify`] solves the paper's cases (or one problem file) and certifies each
 //! solution as a local minimum of the discretized problem, or not
@@ -37,9 +39,9 @@ use crate::lie::checks::Verdict;
 use crate::model::generated::{DIM, KAPPA, OMEGA, XI, XIDOT};
 use crate::report::{
     self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir,
-    ReportError, StabilityRun, StageSummary, Summary, TrajectoryTable,
+    ReportError, StabilityRun, StageSummary, StatusCode, Summary, TrajectoryTable,
 };
-use crate::suslov::paper::{self, PaperCase};
+use crate::suslov::paper;
 use crate::suslov::problem::SuslovProblem;
 use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
 use crate::suslov::stability::{stability_runs, PERTURBATION};
@@ -288,7 +290,7 @@ pub fn run_case(
         Ok(sol) => {
             let mut s = summarize(name, &sol, 0.0);
             s.wall_seconds = clock.elapsed().as_secs_f64();
-            let kind = if s.status == CaseStatus::Converged.to_string() {
+            let kind = if s.status_code == StatusCode::Converged {
                 Outputs::Final
             } else {
                 Outputs::Unverified
@@ -311,8 +313,9 @@ pub fn run_case(
             } else {
                 String::new()
             };
-            s.status =
-                CaseStatus::Partial(format!("stage '{stage}' stopped{at}: {reason}")).to_string();
+            s.set_status(&CaseStatus::Partial(format!(
+                "stage '{stage}' stopped{at}: {reason}"
+            )));
             write_case_outputs(out, sub, &partial, name, Outputs::Partial, events)?;
             s
         }
@@ -328,7 +331,10 @@ pub fn run_case(
             omega_b_error: f64::NAN,
             max_residual: f64::NAN,
             wall_seconds: clock.elapsed().as_secs_f64(),
+            status_code: StatusCode::Failed,
             status: CaseStatus::Failed(e.to_string()).to_string(),
+            model: <crate::model::generated::So3 as crate::model::Model>::NAME.to_string(),
+            model_source_hash: crate::model::generated::SOURCE_HASH.to_string(),
             ..Default::default()
         },
     };
@@ -344,21 +350,34 @@ pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary
     dir.check_free(
         paper::CASES
             .iter()
-            .flat_map(|c| case_files(Path::new(c.name)))
+            .flat_map(|c| {
+                let mut files = case_files(Path::new(c.name));
+                files.push(Path::new(c.name).join(PROBLEM_FILE));
+                files
+            })
             .chain([report::SUMMARY_FILE.into()]),
     )?;
-    let mut summary = Summary::default();
+    let mut summary = Summary::new(Vec::new());
     let options = SolveOptions::default();
-    for PaperCase { name, eta, .. } in paper::CASES {
-        let case = run_case(
-            name,
-            &paper::problem(eta),
+    for case in &paper::CASES {
+        let input = config::resolved::paper_case(case);
+        let path = dir.write(
+            Path::new(case.name).join(PROBLEM_FILE),
+            input
+                .toml_text(&format!("the paper's case {}", case.name))
+                .as_bytes(),
+        )?;
+        events(AppEvent::Wrote(&path));
+        let mut summary_case = run_case(
+            case.name,
+            &paper::problem(case.eta),
             &mut dir,
-            Path::new(name),
+            Path::new(case.name),
             &options,
             events,
         )?;
-        summary.cases.push(case);
+        summary_case.input = Some(input.to_json());
+        summary.cases.push(summary_case);
     }
     finish(dir, &summary, events)?;
     Ok(summary)
@@ -382,8 +401,9 @@ fn finish(
 }
 
 /// `suslov solve CONFIG --out DIR`: read the problem file (see [`crate::config`] for the
-/// schema), solve and verify it, and write into `DIR` ([`OutputDir`]) `problem.toml` (a copy
-/// of the input), `trajectory.csv`/`.npy` (or `trajectory.partial.*`), the figures and, last,
+/// schema), solve and verify it, and write into `DIR` ([`OutputDir`]) `problem.toml` (the
+/// resolved input, [`config::resolved`]), `trajectory.csv`/`.npy` (or `trajectory.partial.*`),
+/// the figures and, last,
 /// `summary.json` (one case). An invalid file is an error before anything is written; a
 /// solver failure is not (it is recorded in the summary's status).
 pub fn run_solve(
@@ -402,26 +422,15 @@ pub fn run_solve(
     for w in &loaded.warnings {
         events(AppEvent::Warning(w));
     }
-    // `solve DIR/problem.toml --out DIR`: the input is already where its copy goes; it stays
-    // the user's file (not overwritten, not listed for the next run to remove).
-    let same_file = |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b))
-    {
-        (Ok(a), Ok(b)) => a == b,
-        _ => false,
-    };
-    let input_is_the_copy = same_file(config_path, &out.join("problem.toml"));
+    let input = InputCopy::new(&loaded.resolved, config_path, &text, out);
     let mut dir = OutputDir::open(out)?;
     dir.check_free(
         case_files(Path::new(""))
             .into_iter()
-            .chain((!input_is_the_copy).then(|| "problem.toml".into()))
+            .chain(input.files())
             .chain([report::SUMMARY_FILE.into()]),
     )?;
-    // (A copy an earlier run wrote was just removed with that run's files: write it again.)
-    if !input_is_the_copy || !out.join("problem.toml").exists() {
-        let copy = dir.write("problem.toml", text.as_bytes())?;
-        events(AppEvent::Wrote(&copy));
-    }
+    input.write(&mut dir, events)?;
     let mut case = run_case(
         &loaded.name,
         &loaded.problem,
@@ -430,6 +439,7 @@ pub fn run_solve(
         &loaded.options,
         events,
     )?;
+    case.input = Some(loaded.resolved.to_json());
     case.extra.insert(
         "problem_file".into(),
         serde_json::json!(config_path.display().to_string()),
@@ -444,10 +454,77 @@ pub fn run_solve(
                 .collect::<Vec<_>>()),
         );
     }
-    let summary = Summary { cases: vec![case] };
+    let summary = Summary::new(vec![case]);
     finish(dir, &summary, events)?;
     Ok(summary)
 }
+
+/// The resolved input of `suslov solve` in its output directory: `problem.toml` and the
+/// files it names ([`config::resolved`]), so that `suslov solve DIR/problem.toml` repeats the
+/// run. When the input is `DIR/problem.toml` itself (`solve DIR/problem.toml --out DIR`) it
+/// stays the user's file: not rewritten, not listed for the next run to remove.
+pub(crate) struct InputCopy<'a> {
+    resolved: &'a config::ResolvedInput,
+    source: String,
+    /// The input's text as read, when the input is `DIR/problem.toml` itself.
+    input_is_the_copy: Option<&'a str>,
+}
+
+impl<'a> InputCopy<'a> {
+    /// `text` is the input file's text as read.
+    pub(crate) fn new(
+        resolved: &'a config::ResolvedInput,
+        config_path: &Path,
+        text: &'a str,
+        out: &Path,
+    ) -> Self {
+        let same_file =
+            |a: &Path, b: &Path| match (std::fs::canonicalize(a), std::fs::canonicalize(b)) {
+                (Ok(a), Ok(b)) => a == b,
+                _ => false,
+            };
+        Self {
+            resolved,
+            source: config_path.display().to_string(),
+            input_is_the_copy: same_file(config_path, &out.join(PROBLEM_FILE)).then_some(text),
+        }
+    }
+
+    /// The files it writes that belong to the run (for [`OutputDir::check_free`]).
+    pub(crate) fn files(&self) -> Vec<PathBuf> {
+        self.input_is_the_copy
+            .is_none()
+            .then(|| PathBuf::from(PROBLEM_FILE))
+            .into_iter()
+            .chain(self.resolved.files.iter().map(|(n, _)| PathBuf::from(n)))
+            .collect()
+    }
+
+    /// Writes the files; call after [`OutputDir::open`] (which removes an earlier run's).
+    pub(crate) fn write(
+        &self,
+        dir: &mut OutputDir,
+        events: &mut dyn FnMut(AppEvent),
+    ) -> Result<(), AppError> {
+        for (name, bytes) in &self.resolved.files {
+            let path = dir.write(name, bytes)?;
+            events(AppEvent::Wrote(&path));
+        }
+        let text = match self.input_is_the_copy {
+            None => self.resolved.toml_text(&self.source),
+            // A copy an earlier run wrote was just removed with that run's files: write it
+            // again as it was read (never lost, never changed).
+            Some(text) if !dir.root().join(PROBLEM_FILE).exists() => text.to_string(),
+            Some(_) => return Ok(()),
+        };
+        let path = dir.write(PROBLEM_FILE, text.as_bytes())?;
+        events(AppEvent::Wrote(&path));
+        Ok(())
+    }
+}
+
+/// The resolved input's file name in an output directory.
+pub const PROBLEM_FILE: &str = "problem.toml";
 
 /// One case for [`run_certify`] and [`run_rank_along`].
 pub struct CaseJob {

@@ -103,6 +103,9 @@ use crate::suslov::solve::{SolveOptions, StartStrategy};
 use crate::suslov::SuslovError;
 
 pub mod generic;
+pub mod resolved;
+
+pub use resolved::ResolvedInput;
 
 /// Allowed `|Ω_d(t0) − Ω_a| / |Ω_a|` (when `γ > 0`).
 pub const DESIRED_START_REL_TOL: f64 = 1e-6;
@@ -535,6 +538,8 @@ pub struct LoadedProblem {
     pub options: SolveOptions,
     /// What was accepted but deserves a word (the problem is solved as given).
     pub warnings: Vec<ConfigWarning>,
+    /// The file with every default filled in ([`resolved`]).
+    pub resolved: ResolvedInput,
 }
 
 /// Something in a valid problem file that is probably not what was meant; the problem is
@@ -935,7 +940,42 @@ fn clip(s: &str) -> String {
 /// message itself. Each quoted piece (between backticks or double quotes) keeps at most
 /// half of [`MAX_ECHO_CHARS`] characters, so that what follows it (e.g. the list of valid
 /// keys) survives, and each line at most `MAX_ECHO_CHARS + 50`.
+/// What the TOML reader's messages name by Rust type (`expected struct TerminalTimeSpec`,
+/// `expected usize`), in the words of the file.
+const TYPE_WORDS: &[(&str, &str)] = &[
+    (
+        "struct TerminalTimeSpec",
+        "a table: { fixed = b } or { free = true, guess = b }",
+    ),
+    ("struct ProblemFile", "a problem file (a TOML table)"),
+    ("struct BodySection", "a table [body]"),
+    ("struct BoundarySection", "a table [boundary]"),
+    ("struct CostSection", "a table [cost]"),
+    ("struct DesiredSection", "a table [desired]"),
+    ("struct SolverSection", "a table [solver]"),
+    ("usize", "a whole number >= 0"),
+    ("u64", "a whole number >= 0"),
+    ("i64", "a whole number"),
+    ("f64", "a number"),
+    ("a sequence", "an array"),
+    ("sequence", "an array"),
+    ("a map", "a table"),
+    ("map", "a table"),
+];
+
+/// `s` with the Rust type names of [`TYPE_WORDS`] replaced.
+pub(crate) fn plain_words(s: &str) -> String {
+    let mut out = s.to_string();
+    for &(rust, words) in TYPE_WORDS {
+        for lead in ["expected ", "expected one of ", "invalid type: "] {
+            out = out.replace(&format!("{lead}{rust}"), &format!("{lead}{words}"));
+        }
+    }
+    out
+}
+
 fn clip_toml_message(s: &str) -> String {
+    let s = &plain_words(s);
     let clip_pieces = |line: &str| {
         let mut out = String::new();
         let mut piece = String::new();
@@ -1313,6 +1353,20 @@ fn reject_unused(d: &DesiredSection, kind: &str, allowed: &[&str]) -> Result<(),
     Ok(())
 }
 
+/// `[desired]` of the resolved input: `kind` and the given keys (scalars for one number).
+fn desired_keys(kind: &str, keys: &[(&str, &[f64])]) -> toml::Table {
+    let mut t = toml::Table::new();
+    t.insert("kind".into(), toml::Value::String(kind.into()));
+    for (k, v) in keys {
+        let value = match v {
+            [x] if *k != "interval" => toml::Value::Float(*x),
+            v => resolved::floats(v),
+        };
+        t.insert((*k).into(), value);
+    }
+    t
+}
+
 /// A built desired path with what the rest of the file needs from it.
 struct Desired {
     kind: &'static str,
@@ -1328,6 +1382,8 @@ struct Desired {
     overflow: (&'static str, &'static str),
     /// Times where the path changes fastest (checked besides a uniform grid).
     special_times: Vec<f64>,
+    /// Its keys with every default filled in (`kind` included), and the file it read.
+    resolved: (toml::Table, Option<Vec<u8>>),
 }
 
 /// Points of the uniform grid on `[t0, b]` at which [`check_path_finite`] evaluates the
@@ -1845,12 +1901,25 @@ impl ProblemFile {
         )?;
 
         // [desired]
-        let desired_section = self.desired.as_ref().ok_or_else(|| {
-            missing(
-                "desired",
-                format!("add a [desired] table with kind = {KINDS}"),
-            )
-        })?;
+        // With gamma = 0 Omega_d is not part of the cost: the table may be left out, and the
+        // projected segment omega_a -> omega_b (the solver's start path) stands in for it.
+        let segment_default = DesiredSection {
+            kind: Some("segment".into()),
+            ..DesiredSection::default()
+        };
+        let desired_section = match &self.desired {
+            Some(d) => d,
+            None if gamma == 0.0 => &segment_default,
+            None => {
+                return Err(missing(
+                    "desired",
+                    format!(
+                        "add a [desired] table with kind = {KINDS} (the path Omega_d that \
+                         cost.gamma > 0 tracks; with gamma = 0 the table may be left out)"
+                    ),
+                ))
+            }
+        };
         let kind = desired_section.kind.as_deref().ok_or_else(|| {
             missing(
                 "desired.kind",
@@ -1985,6 +2054,14 @@ impl ProblemFile {
                 t0,
             )?);
         }
+        let resolved = self.resolved(
+            &name,
+            (t0, omega_a, omega_b_spec),
+            &terminal,
+            [alpha, beta, gamma, eta, delta],
+            &desired,
+            &options,
+        );
         let problem = SuslovProblem {
             inertia,
             weights: CostWeights {
@@ -2009,7 +2086,69 @@ impl ProblemFile {
             problem,
             options,
             warnings,
+            resolved,
         })
+    }
+
+    /// The resolved input ([`resolved`]) of a file whose values were checked: the given
+    /// values as read, the defaults as used.
+    fn resolved(
+        &self,
+        name: &str,
+        (t0, omega_a, omega_b): (f64, Vector3<f64>, OmegaBSpec),
+        terminal: &TerminalTime,
+        [alpha, beta, gamma, eta, delta]: [f64; 5],
+        desired: &Desired,
+        options: &SolveOptions,
+    ) -> ResolvedInput {
+        use resolved::{floats, section};
+        let mut t = toml::Table::new();
+        t.insert("model".into(), toml::Value::String("so3".into()));
+        t.insert("name".into(), toml::Value::String(name.into()));
+        if let Some(Numbers::Exact(i)) = self.body.as_ref().and_then(|b| b.inertia) {
+            section(&mut t, "body").insert("inertia".into(), floats(&i));
+        }
+        let boundary = section(&mut t, "boundary");
+        boundary.insert("t0".into(), toml::Value::Float(t0));
+        boundary.insert("omega_a".into(), floats(omega_a.as_slice()));
+        boundary.insert(
+            "omega_b".into(),
+            match omega_b {
+                OmegaBSpec::DesiredEnd => toml::Value::String("desired_end".into()),
+                OmegaBSpec::Vector(Numbers::Exact(v)) => floats(&v),
+                OmegaBSpec::Vector(Numbers::WrongLength(_)) => {
+                    unreachable!("checked by vector3")
+                }
+            },
+        );
+        let fixed = match terminal {
+            TerminalTime::Fixed(b) => Some(*b),
+            TerminalTime::Free { .. } => None,
+        };
+        boundary.insert(
+            "terminal_time".into(),
+            resolved::terminal_time(fixed, terminal.initial()),
+        );
+        let cost = section(&mut t, "cost");
+        for (k, v) in [
+            ("alpha", alpha),
+            ("beta", beta),
+            ("gamma", gamma),
+            ("eta", eta),
+            ("delta", delta),
+        ] {
+            cost.insert(k.into(), toml::Value::Float(v));
+        }
+        let (keys, raw) = &desired.resolved;
+        t.insert("desired".into(), toml::Value::Table(keys.clone()));
+        let (solver, start_file) = resolved::solver(options, &crate::model::generated::STATE_NAMES);
+        t.insert("solver".into(), toml::Value::Table(solver));
+        let files = raw
+            .iter()
+            .map(|b| (resolved::SAMPLES_FILE.to_string(), b.clone()))
+            .chain(start_file)
+            .collect();
+        ResolvedInput { table: t, files }
     }
 
     #[allow(clippy::too_many_arguments)]
@@ -2027,13 +2166,14 @@ impl ProblemFile {
         match kind {
             "paper-spiral" => {
                 reject_unused(d, kind, &["c", "width", "b_d"])?;
-                let c = finite("desired.c", d.c.unwrap_or(10.0))?;
+                let paper = PaperSpiral::paper();
+                let c = finite("desired.c", d.c.unwrap_or(paper.c()))?;
                 let width = positive(
                     "desired.width",
-                    d.width.unwrap_or(0.01),
+                    d.width.unwrap_or(paper.width()),
                     "the time scale of the sigmoid switching to the end point",
                 )?;
-                let b_d = finite("desired.b_d", d.b_d.unwrap_or(10.0))?;
+                let b_d = finite("desired.b_d", d.b_d.unwrap_or(paper.b_d()))?;
                 if b_d <= t0 {
                     return Err(ConfigError::OutOfRange {
                         field: "desired.b_d".into(),
@@ -2065,6 +2205,10 @@ impl ProblemFile {
                          (or smaller c, b_d)",
                     ),
                     special_times: vec![b_d],
+                    resolved: (
+                        desired_keys(kind, &[("c", &[c]), ("width", &[width]), ("b_d", &[b_d])]),
+                        None,
+                    ),
                 })
             }
             "segment" => {
@@ -2117,6 +2261,14 @@ impl ProblemFile {
                         requirement: "needs start < end; give interval = [t_start, t_end]".into(),
                     });
                 }
+                let resolved = desired_keys(
+                    kind,
+                    &[
+                        ("from", from.as_slice()),
+                        ("to", to.as_slice()),
+                        ("interval", &[a, b]),
+                    ],
+                );
                 let from = onto_ellipsoid(from_key, ellipsoid, &from)?;
                 let to = onto_ellipsoid(to_key, ellipsoid, &to)?;
                 let segment =
@@ -2154,6 +2306,7 @@ impl ProblemFile {
                         )
                     },
                     special_times: vec![a, b],
+                    resolved: (resolved, None),
                 })
             }
             "constant" => {
@@ -2173,6 +2326,7 @@ impl ProblemFile {
                     end_time: None,
                     overflow: ("desired.value", "give a smaller value"),
                     special_times: vec![],
+                    resolved: (desired_keys(kind, &[("value", value.as_slice())]), None),
                 })
             }
             "samples" => {
@@ -2195,6 +2349,7 @@ impl ProblemFile {
                         ReadFailure::File(p) => SamplesProblem::File(p),
                     })
                 })?;
+                let raw = bytes.clone();
                 let text = decode(bytes, false).map_err(|p| bad(SamplesProblem::File(p)))?;
                 let (times, values) =
                     parse_samples(&text).map_err(|e| bad(SamplesProblem::Rows(e)))?;
@@ -2220,6 +2375,17 @@ impl ProblemFile {
                          space the samples further apart or make them smaller",
                     ),
                     special_times: vec![first, last],
+                    resolved: (
+                        {
+                            let mut t = desired_keys(kind, &[]);
+                            t.insert(
+                                "file".into(),
+                                toml::Value::String(resolved::SAMPLES_FILE.into()),
+                            );
+                            t
+                        },
+                        Some(raw),
+                    ),
                 })
             }
             other => Err(ConfigError::Invalid {
@@ -2337,18 +2503,15 @@ impl ProblemFile {
             o.max_routes = n;
         }
         if let Some(start) = &s.start {
-            o.start = match start.as_str() {
-                "auto" => StartStrategy::Auto,
-                "desired" => StartStrategy::Desired,
-                "desired-gamma-from-zero" => StartStrategy::DesiredGammaFromZero,
-                "segment" => StartStrategy::Segment,
-                other => {
+            o.start = match resolved::START_KEYS.iter().find(|(k, _)| k == start) {
+                Some((_, strategy)) => *strategy,
+                None => {
                     return Err(ConfigError::Invalid {
                         field: "solver.start".into(),
                         message: format!(
                             "unknown start {:?}; use \"auto\" (default), \"desired\", \
                              \"desired-gamma-from-zero\" or \"segment\"",
-                            clip(other)
+                            clip(start)
                         ),
                     })
                 }

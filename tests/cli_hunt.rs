@@ -455,6 +455,7 @@ fn solving_the_problem_file_of_the_output_directory_keeps_it() {
         120,
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let written = std::fs::read(&copy).unwrap();
     let o = run(
         &[
             "-q",
@@ -466,5 +467,5 @@ fn solving_the_problem_file_of_the_output_directory_keeps_it() {
         120,
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
-    assert_eq!(std::fs::read(&copy).unwrap(), text);
+    assert_eq!(std::fs::read(&copy).unwrap(), written);
 }

@@ -206,3 +206,87 @@ fn a_case_without_a_solution_says_why_without_nans_or_rust_names() {
     assert_no_rust_names(&stdout);
     assert_no_rust_names(&text(&o.stderr));
 }
+
+fn summary_of(dir: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap()
+}
+
+/// `summary.json` says which build wrote it, how each case ended as a code, and the full
+/// input; `DIR/problem.toml` is that input, and solving it repeats the run bit for bit (so(3)
+/// and another model; the paper's cases get theirs too).
+#[test]
+fn a_run_records_its_input_and_solving_that_repeats_it() {
+    let dir = scratch("repeat");
+    for (example_file, model) in [("segment.toml", "so3"), ("se2_sleigh.toml", "se2")] {
+        let first = dir.join(format!("{model}_1"));
+        let o = run(
+            &[
+                "solve",
+                example(example_file).to_str().unwrap(),
+                "--out",
+                first.to_str().unwrap(),
+            ],
+            &dir,
+        );
+        assert_eq!(o.status.code(), Some(0), "{o:?}");
+        let s1 = summary_of(&first);
+        assert_eq!(s1["tool"]["name"], "suslov");
+        assert_eq!(s1["tool"]["version"], env!("CARGO_PKG_VERSION"));
+        assert_eq!(
+            s1["tool"]["codegen_source_hash"].as_str().unwrap().len(),
+            64
+        );
+        let case = &s1["cases"][0];
+        assert_eq!(case["status_code"], "converged");
+        assert_eq!(case["model"], model);
+        assert_eq!(case["model_source_hash"].as_str().unwrap().len(), 64);
+        assert_eq!(case["input"]["model"], model);
+        assert!(case["input"]["solver"]["tolerance"].is_number(), "{case:#}");
+        let second = dir.join(format!("{model}_2"));
+        let o = run(
+            &[
+                "solve",
+                first.join("problem.toml").to_str().unwrap(),
+                "--out",
+                second.to_str().unwrap(),
+            ],
+            &dir,
+        );
+        assert_eq!(o.status.code(), Some(0), "{o:?}");
+        let s2 = summary_of(&second);
+        for key in ["terminal_time", "cost", "max_abs_constraint", "mesh_nodes"] {
+            assert_eq!(s1["cases"][0][key], s2["cases"][0][key], "{model}: {key}");
+        }
+        assert_eq!(s1["cases"][0]["input"], s2["cases"][0]["input"], "{model}");
+    }
+    // The paper: each case directory holds its problem.toml; η = 0.01 solved from it gives the
+    // paper run's b and J.
+    let paper = dir.join("paper");
+    let o = run(&["paper", "--out", paper.to_str().unwrap()], &dir);
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let sp = summary_of(&paper);
+    for case in sp["cases"].as_array().unwrap() {
+        assert_eq!(case["status_code"], "converged");
+        assert_eq!(case["input"]["desired"]["kind"], "paper-spiral");
+    }
+    let again = dir.join("paper_eta_0.01");
+    let o = run(
+        &[
+            "solve",
+            paper.join("eta_0.01/problem.toml").to_str().unwrap(),
+            "--out",
+            again.to_str().unwrap(),
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let sa = summary_of(&again);
+    let case = sp["cases"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|c| c["name"] == "eta_0.01")
+        .unwrap();
+    assert_eq!(case["terminal_time"], sa["cases"][0]["terminal_time"]);
+    assert_eq!(case["cost"], sa["cases"][0]["cost"]);
+}

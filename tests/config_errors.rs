@@ -93,7 +93,12 @@ fn mistyped_values_keep_the_parser_message_with_line_and_field() {
     assert!(matches!(e, ConfigError::Toml { .. }));
     assert_contains(
         &msg,
-        &["line 15", "invalid type", "string \"x\"", "expected f64"],
+        &[
+            "line 15",
+            "invalid type",
+            "string \"x\"",
+            "expected a number",
+        ],
     );
 
     let (_, msg) = error(
@@ -118,7 +123,7 @@ fn mistyped_values_keep_the_parser_message_with_line_and_field() {
         &with_line("terminal_time =", "terminal_time = { fixed = \"10\" }"),
         "boundary.terminal_time.fixed",
     );
-    assert_contains(&msg, &["invalid type", "expected f64"]);
+    assert_contains(&msg, &["invalid type", "expected a number"]);
 
     // Integers are numbers too.
     let ints = with_line("inertia =", "inertia = [1, 2, 3]");
@@ -659,4 +664,78 @@ fn the_start_override_is_parsed_and_checked() {
         msg.contains("solver.start") && msg.contains("\"segment\""),
         "{msg}"
     );
+}
+
+/// A value of the wrong TOML type is reported in the file's words: no Rust type names
+/// (`struct TerminalTimeSpec`, `usize`, `f64`, `a sequence`) in the message, for so(3) files and
+/// for the `[solver]` table of the other models' files.
+#[test]
+fn wrong_types_are_named_without_rust_type_names() {
+    let rust_names = [
+        "struct",
+        "Spec",
+        "Section",
+        "ProblemFile",
+        "usize",
+        "u64",
+        "i64",
+        "f64",
+        "sequence",
+    ];
+    let cases = [
+        (
+            with_line("terminal_time", "terminal_time = 5.0"),
+            "a table: { fixed = b }",
+        ),
+        (
+            with_line("terminal_time", "terminal_time = \"free\""),
+            "a table",
+        ),
+        (
+            BASE.replace("[body]\ninertia = [1.0, 2.0, 3.0]", "body = 3"),
+            "a table [body]",
+        ),
+        (
+            format!(
+                "solver = [1, 2]\n{}",
+                BASE.replace("[solver]\ntolerance = 1e-8", "")
+            ),
+            "a table [solver]",
+        ),
+        (format!("{BASE}\nmax_nodes = -1\n"), "a whole number >= 0"),
+        (format!("{BASE}\nmax_nodes = 1.5\n"), "a whole number >= 0"),
+        (
+            format!("{BASE}\nmax_routes = \"many\"\n"),
+            "a whole number >= 0",
+        ),
+        (with_line("alpha", "alpha = \"one\""), "a number"),
+        (with_line("c =", "c = [1.0]"), "a number"),
+    ];
+    for (doc, words) in cases {
+        let e = config::from_toml_str(&doc).expect_err(words);
+        let msg = e.to_string();
+        for name in rust_names {
+            assert!(!msg.contains(name), "`{name}` in: {msg}");
+        }
+        assert!(msg.contains(words), "`{words}` not in: {msg}");
+    }
+    // Another model's [solver] table, read by the same rules.
+    let se2 = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml"),
+    )
+    .unwrap();
+    let doc = format!("{se2}\n[solver]\ninitial_intervals = -3\n");
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("config_errors_types");
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("se2.toml");
+    std::fs::write(&path, doc).unwrap();
+    let config::Loaded::Other(file) = config::load_any(&path).unwrap().0 else {
+        panic!("an se2 file")
+    };
+    let msg = file
+        .build::<suslov::model::se2::Se2>()
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("a whole number >= 0"), "{msg}");
+    assert!(!msg.contains("usize"), "{msg}");
 }

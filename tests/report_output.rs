@@ -187,9 +187,12 @@ fn sample_summary() -> Summary {
     let mut extra = serde_json::Map::new();
     extra.insert("alpha".into(), serde_json::json!(1.0));
     Summary {
+        tool: suslov::report::ToolInfo::current(),
         cases: vec![
             CaseSummary {
                 name: "eta = 1".into(),
+                model: "so3".into(),
+                model_source_hash: "0".repeat(64),
                 eta: 1.0,
                 terminal_time: 11.36,
                 cost: 12.5,
@@ -203,9 +206,11 @@ fn sample_summary() -> Summary {
                 continuation_steps: 42,
                 newton_iterations: 170,
                 wall_seconds: 3.25,
+                status_code: suslov::report::StatusCode::Converged,
                 status: "converged".into(),
                 verification: None,
                 reintegration_max_diff: Some(2.0e-9),
+                input: Some(serde_json::json!({"model": "so3"})),
                 stability: vec![StabilityRun {
                     label: "relative 1e-3".into(),
                     perturbation: 1e-3,
@@ -230,6 +235,7 @@ fn sample_summary() -> Summary {
                 eta: 0.01,
                 terminal_time: f64::NAN,
                 cost: f64::NEG_INFINITY,
+                status_code: suslov::report::StatusCode::Partial,
                 status: "partial: delta stage stalled at 0.13".into(),
                 ..CaseSummary::default()
             },
@@ -262,7 +268,11 @@ fn summary_json_round_trips_with_all_fields_and_null_for_non_finite() {
         "continuation_steps",
         "newton_iterations",
         "wall_seconds",
+        "model",
+        "model_source_hash",
+        "status_code",
         "status",
+        "input",
         "reintegration_max_diff",
         "stability",
         "stages",
@@ -271,6 +281,9 @@ fn summary_json_round_trips_with_all_fields_and_null_for_non_finite() {
         assert!(c0.get(key).is_some(), "missing {key} in {c0}");
     }
     assert_eq!(c0["stages"][0]["failures_recovered"], 1);
+    assert_eq!(c0["status_code"], "converged");
+    assert_eq!(v["cases"][1]["status_code"], "partial");
+    assert_eq!(v["tool"]["name"], "suslov");
     assert!(c0["stability"][0]["final_omega_diff"].is_null());
     let c1 = &v["cases"][1];
     assert!(c1["terminal_time"].is_null());
@@ -291,6 +304,9 @@ fn summary_json_round_trips_with_all_fields_and_null_for_non_finite() {
     assert!(back.cases[1].terminal_time.is_nan() && back.cases[1].cost.is_nan());
     assert_eq!(back.cases[1].reintegration_max_diff, None);
     assert_eq!(back.cases[1].status, s.cases[1].status);
+    assert_eq!(back.cases[1].status_code, s.cases[1].status_code);
+    assert_eq!(back.tool, s.tool);
+    assert_eq!(back.cases[0].input, s.cases[0].input);
     // Replacing an existing summary leaves exactly one file.
     write_summary_json(&p, &Summary::default()).unwrap();
     let v: serde_json::Value = serde_json::from_str(&fs::read_to_string(&p).unwrap()).unwrap();

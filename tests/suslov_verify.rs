@@ -98,7 +98,7 @@ fn run_case_records_an_unverified_loose_solve_in_summary_json() {
     assert!(!dir.join("omega.png").exists());
     assert_ne!(case.status, "converged");
     assert!(case.status.starts_with("unverified: "), "{}", case.status);
-    let summary = suslov::report::Summary { cases: vec![case] };
+    let summary = suslov::report::Summary::new(vec![case]);
     let text = summary.to_json_string().expect("json");
     let v: serde_json::Value = serde_json::from_str(&text).expect("valid JSON");
     let checks = v["cases"][0]["verification"]["checks"]

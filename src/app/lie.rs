@@ -2,7 +2,7 @@
 //! with the generic layer ([`crate::lie`]), verify, reconstruct the group motion, and write
 //!
 //! ```text
-//! DIR/problem.toml          a copy of the input
+//! DIR/problem.toml          the input, every default filled in (config::resolved)
 //! DIR/trajectory.csv        t, the model's state names (Ω, ξ, ξ̇, κ), Ω_d on a uniform grid
 //! DIR/motion.csv            t, g(t) row-major (ġ = g Ω̂, g(a) = identity), when the model
 //!                           has a matrix representation; for planar rigid motions (se(2))
@@ -204,12 +204,14 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
         mesh_nodes: sol.bvp.num_nodes(),
         continuation_steps: sol.stages.iter().map(|s| s.steps).sum(),
         newton_iterations: sol.stages.iter().map(|s| s.newton_iterations).sum(),
-        status: status.to_string(),
         verification: Some((&verification).into()),
         stages: stage_summaries_of(&sol.stages),
         reintegration_max_diff: reintegration.as_ref().ok().map(|r| r.max_abs_diff),
         ..Default::default()
     };
+    c.set_status(&status);
+    c.model = M::NAME.to_string();
+    c.model_source_hash = crate::model::source_hash_of(M::NAME).to_string();
     c.extra.insert("model".into(), serde_json::json!(M::NAME));
     let params: serde_json::Map<String, serde_json::Value> = Problem::<M>::user_metas()
         .map(|m| {
@@ -395,15 +397,17 @@ pub fn run_model_solve<M: Model>(
         name,
         problem,
         options,
+        resolved,
     } = file.build::<M>()?;
+    let input = super::InputCopy::new(&resolved, config_path, text, out);
     let mut dir = OutputDir::open(out)?;
     dir.check_free(
         files()
             .into_iter()
-            .chain(["problem.toml".into(), report::SUMMARY_FILE.into()]),
+            .chain(input.files())
+            .chain([report::SUMMARY_FILE.into()]),
     )?;
-    let copy = dir.write("problem.toml", text.as_bytes())?;
-    events(AppEvent::Wrote(&copy));
+    input.write(&mut dir, events)?;
     events(AppEvent::CaseStarted { name: &name });
     let clock = Instant::now();
     let result = lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e)));
@@ -468,8 +472,9 @@ pub fn run_model_solve<M: Model>(
             } else {
                 String::new()
             };
-            c.status =
-                CaseStatus::Partial(format!("stage '{stage}' stopped{at}: {reason}")).to_string();
+            c.set_status(&CaseStatus::Partial(format!(
+                "stage '{stage}' stopped{at}: {reason}"
+            )));
             write(
                 &mut dir,
                 "trajectory.partial.csv",
@@ -488,17 +493,21 @@ pub fn run_model_solve<M: Model>(
             energy_drift: f64::NAN,
             omega_b_error: f64::NAN,
             max_residual: f64::NAN,
+            status_code: report::StatusCode::Failed,
             status: CaseStatus::Failed(e.to_string()).to_string(),
+            model: M::NAME.to_string(),
+            model_source_hash: crate::model::source_hash_of(M::NAME).to_string(),
             ..Default::default()
         },
     };
     case.wall_seconds = clock.elapsed().as_secs_f64();
+    case.input = Some(resolved.to_json());
     case.extra.insert(
         "problem_file".into(),
         serde_json::json!(config_path.display().to_string()),
     );
     events(AppEvent::CaseFinished(&case));
-    let summary = report::Summary { cases: vec![case] };
+    let summary = report::Summary::new(vec![case]);
     finish(dir, &summary, events)?;
     Ok(summary)
 }
@@ -548,6 +557,7 @@ pub fn run_model_certify<M: Model>(
         name,
         problem,
         mut options,
+        ..
     } = file.build::<M>()?;
     if let Some(t) = tolerance {
         options.tol = t;
@@ -576,6 +586,7 @@ pub fn run_model_rank_along<M: Model>(
         name,
         problem,
         options,
+        ..
     } = file.build::<M>()?;
     events(AppEvent::CaseStarted { name: &name });
     let sol = match lie::solve(&problem, &options, &mut |e| events(AppEvent::Solve(e))) {

@@ -50,6 +50,9 @@ use crate::lie::problem::{TerminalTime, ENERGY_REL_TOL};
 use crate::lie::solve::SolveOptions;
 use crate::model::{HomotopyRole, Model};
 
+use super::resolved::{
+    floats, section, solver as resolved_solver, terminal_time, ResolvedInput, SAMPLES_FILE,
+};
 use super::{
     clip, decode, read_bounded, ConfigError, DefaultName, ProblemFile, ReadFailure, SolverSection,
     MAX_SAMPLES_FILE_BYTES,
@@ -64,6 +67,8 @@ pub struct LoadedModelProblem<M: Model> {
     pub problem: Problem<M>,
     /// Solver options.
     pub options: SolveOptions,
+    /// The file with every default filled in ([`super::resolved`]).
+    pub resolved: ResolvedInput,
 }
 
 type Table = toml::Table;
@@ -160,8 +165,11 @@ fn basis_meaning<M: Model>() -> String {
     format!("components along {}", M::BASIS_NAMES.join(", "))
 }
 
-/// Read the samples CSV `t, Ω_1, …, Ω_n` (header optional, `#` comments).
-fn samples<M: Model>(path: &Path) -> Result<(Vec<f64>, Vec<Vec<f64>>), ConfigError> {
+type Samples = (Vec<f64>, Vec<Vec<f64>>, Vec<u8>);
+
+/// Read the samples CSV `t, Ω_1, …, Ω_n` (header optional, `#` comments): the times, the
+/// values and the file's bytes.
+fn samples<M: Model>(path: &Path) -> Result<Samples, ConfigError> {
     let bytes = read_bounded(path, MAX_SAMPLES_FILE_BYTES).map_err(|e| match e {
         ReadFailure::Io(source) => ConfigError::Read {
             path: path.to_path_buf(),
@@ -172,6 +180,7 @@ fn samples<M: Model>(path: &Path) -> Result<(Vec<f64>, Vec<Vec<f64>>), ConfigErr
             problem,
         },
     })?;
+    let raw = bytes.clone();
     let text = decode(bytes, false).map_err(|problem| ConfigError::File {
         path: path.to_path_buf(),
         problem,
@@ -209,7 +218,7 @@ fn samples<M: Model>(path: &Path) -> Result<(Vec<f64>, Vec<Vec<f64>>), ConfigErr
         times.push(row[0]);
         values.push(row[1..].to_vec());
     }
-    Ok((times, values))
+    Ok((times, values, raw))
 }
 
 /// Build a problem of model `M` from the parsed file `root`.
@@ -453,6 +462,7 @@ pub(crate) fn build<M: Model>(
         }
     }
     // The desired path (before projection) and its end time.
+    let mut samples_bytes = None;
     let (raw, end): (Option<Arc<dyn LiePath>>, Option<EndPoint>) = match kind.as_str() {
         "constant" => {
             only_keys(desired_t, "desired", &["kind", "value"])?;
@@ -479,7 +489,8 @@ pub(crate) fn build<M: Model>(
                         .into(),
                 });
             };
-            let (times, values) = samples::<M>(&base_dir.join(file))?;
+            let (times, values, raw) = samples::<M>(&base_dir.join(file))?;
+            samples_bytes = Some(raw);
             let s = Sampled::new(&times, &values)
                 .map_err(|e| invalid("desired.file", e.to_string()))?;
             let last = (times[times.len() - 1], values[values.len() - 1].clone());
@@ -578,6 +589,7 @@ pub(crate) fn build<M: Model>(
             message: format!("b = {b} must be greater than t0 = {t0}"),
         });
     }
+    let mut segment_keys = None;
     let desired: Arc<dyn LiePath> = if let Some(inner) = raw {
         if conserves_energy {
             Arc::new(Projected {
@@ -604,6 +616,7 @@ pub(crate) fn build<M: Model>(
             .map(|v| vector("desired.interval", v, 2, "start time, end time"))
             .transpose()?
             .unwrap_or_else(|| vec![t0, b]);
+        segment_keys = Some([from.clone(), to.clone(), interval.clone()]);
         if conserves_energy {
             let from = set
                 .project(&from)
@@ -623,14 +636,13 @@ pub(crate) fn build<M: Model>(
         }
     };
     // The so(3) file's solver section and its checks.
-    let solver: Option<SolverSection> = match root.get("solver") {
-        None => None,
-        Some(v) => Some(
-            v.clone()
-                .try_into()
-                .map_err(|e: toml::de::Error| invalid("solver", e.message().to_string()))?,
-        ),
-    };
+    let solver: Option<SolverSection> =
+        match root.get("solver") {
+            None => None,
+            Some(v) => Some(v.clone().try_into().map_err(|e: toml::de::Error| {
+                invalid("solver", super::plain_words(e.message()))
+            })?),
+        };
     let beta = M::WEIGHTS
         .iter()
         .find(|w| w.role == HomotopyRole::Beta)
@@ -654,11 +666,51 @@ pub(crate) fn build<M: Model>(
             t0,
         )?);
     }
+    // The resolved input: the file as read, with every default filled in.
+    let mut resolved = root.clone();
+    resolved.insert("model".into(), toml::Value::String(M::NAME.into()));
+    resolved.insert("name".into(), toml::Value::String(name.clone()));
+    {
+        let boundary = section(&mut resolved, "boundary");
+        boundary.insert("t0".into(), toml::Value::Float(t0));
+        let fixed = match terminal {
+            TerminalTime::Fixed(b) => Some(b),
+            TerminalTime::Free { .. } => None,
+        };
+        boundary.insert("terminal_time".into(), terminal_time(fixed, b));
+    }
+    {
+        let cost = section(&mut resolved, "cost");
+        for meta in M::WEIGHTS {
+            cost.insert(meta.name.into(), toml::Value::Float(user[meta.index]));
+        }
+    }
+    let mut files = Vec::new();
+    {
+        let d = section(&mut resolved, "desired");
+        d.insert("kind".into(), toml::Value::String(kind.clone()));
+        if let Some([from, to, interval]) = &segment_keys {
+            d.insert("from".into(), floats(from));
+            d.insert("to".into(), floats(to));
+            d.insert("interval".into(), floats(interval));
+        }
+        if let Some(raw) = samples_bytes {
+            d.insert("file".into(), toml::Value::String(SAMPLES_FILE.into()));
+            files.push((SAMPLES_FILE.to_string(), raw));
+        }
+    }
+    let (solver_table, start_file) = resolved_solver(&options, M::STATE_NAMES);
+    resolved.insert("solver".into(), toml::Value::Table(solver_table));
+    files.extend(start_file);
     let problem = Problem::<M>::new(&user, t0, omega_a, omega_b, terminal, desired)
         .map_err(|e| invalid("boundary", e.to_string()))?;
     Ok(LoadedModelProblem {
         name,
         problem,
         options,
+        resolved: ResolvedInput {
+            table: resolved,
+            files,
+        },
     })
 }

@@ -159,6 +159,15 @@ pub fn constant_constraint_value<M: Model>(p: &[f64]) -> f64 {
     -M::constraint_residual(&x, p, &mut grad)
 }
 
+/// The recorded codegen source hash of the generated model `name` (`""` for a name that is
+/// not one).
+pub fn source_hash_of(name: &str) -> &'static str {
+    SOURCE_HASHES
+        .iter()
+        .find(|(n, _)| *n == name)
+        .map_or("", |(_, h)| h)
+}
+
 /// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
 /// solves.
 pub use so3 as generated;

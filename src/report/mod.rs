@@ -64,7 +64,7 @@ pub use outdir::{
 };
 pub use summary::{
     finite_or_null, opt_finite_or_null, write_summary_json, CaseStatus, CaseSummary, CheckSummary,
-    StabilityRun, StageSummary, Summary, VerificationSummary,
+    StabilityRun, StageSummary, StatusCode, Summary, ToolInfo, VerificationSummary,
 };
 pub use table::{dot, norm, EnergyEllipsoid, TableStats, TrajectoryTable};
 

@@ -8,11 +8,55 @@ use super::{write_atomic, ReportError};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// The whole run: one entry per solved case.
+/// The whole run: the tool that wrote it and one entry per solved case.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct Summary {
+    /// Which build wrote this file (empty in files written before it was recorded).
+    #[serde(default)]
+    pub tool: ToolInfo,
     /// The cases, in the order they were run.
     pub cases: Vec<CaseSummary>,
+}
+
+/// The build that wrote a summary: enough to tell whether two runs used the same formulas.
+#[derive(Debug, Clone, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ToolInfo {
+    /// `"suslov"`.
+    pub name: String,
+    /// The crate version (`Cargo.toml`).
+    pub version: String,
+    /// sha256 of every codegen source (`codegen/*.py`, `codegen/models/*.py`, the pinned
+    /// requirements) the generated models were derived from; each case's
+    /// `model_source_hash` covers its own model only.
+    pub codegen_source_hash: String,
+}
+
+impl ToolInfo {
+    /// This build.
+    pub fn current() -> Self {
+        Self {
+            name: env!("CARGO_PKG_NAME").to_string(),
+            version: env!("CARGO_PKG_VERSION").to_string(),
+            codegen_source_hash: crate::model::SOURCE_HASH_ALL.to_string(),
+        }
+    }
+}
+
+/// How a case ended, as a code next to [`CaseSummary::status`]'s message (`status_code` in
+/// `summary.json`, one of the snake_case names below).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StatusCode {
+    /// Solved, and every a-posteriori check passed.
+    Converged,
+    /// Solved, but an a-posteriori check failed (`status` names it).
+    Unverified,
+    /// A homotopy stage stopped; the case holds the last converged point (`status` says
+    /// where and why).
+    Partial,
+    /// No solution at all (`status` says why).
+    #[default]
+    Failed,
 }
 
 /// The outcome of one case (for example `eta = 1`).
@@ -20,6 +64,13 @@ pub struct Summary {
 pub struct CaseSummary {
     /// Case name, e.g. `"eta = 1"`.
     pub name: String,
+    /// The generated model solved (`"so3"`, `"se2"`, …; `codegen/models/<model>.py`).
+    #[serde(default)]
+    pub model: String,
+    /// sha256 of the codegen sources that model's formulas were derived from (the value
+    /// recorded in its generated code).
+    #[serde(default)]
+    pub model_source_hash: String,
     /// The cost weight `η` of this case.
     #[serde(with = "finite_or_null")]
     pub eta: f64,
@@ -59,6 +110,9 @@ pub struct CaseSummary {
     /// Wall-clock time of the case, seconds.
     #[serde(with = "finite_or_null")]
     pub wall_seconds: f64,
+    /// The [`CaseStatus`]'s kind ([`CaseSummary::set_status`] sets it with `status`).
+    #[serde(default)]
+    pub status_code: StatusCode,
     /// The [`CaseStatus`] as text: `"converged"` (the solve succeeded and every check of
     /// `verification` passed), `"unverified: <check> = <value> exceeds <threshold> (…)"`,
     /// `"partial: <reason>"` when the case stopped early, or `"failed: <reason>"`.
@@ -84,6 +138,11 @@ pub struct CaseSummary {
     /// The continuation stages, in order.
     #[serde(default)]
     pub stages: Vec<StageSummary>,
+    /// The problem solved, every default filled in: the table of the `problem.toml` written
+    /// with it (`suslov solve` reads that file back to the same problem). Absent in files
+    /// written before it was recorded.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub input: Option<serde_json::Value>,
     /// Anything else worth recording (free-form; serde_json stores non-finite numbers as
     /// `null` here too).
     #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
@@ -125,6 +184,36 @@ pub enum CaseStatus {
     Partial(String),
     /// No solution at all.
     Failed(String),
+}
+
+impl CaseStatus {
+    /// Its kind.
+    pub fn code(&self) -> StatusCode {
+        match self {
+            Self::Converged => StatusCode::Converged,
+            Self::Unverified(_) => StatusCode::Unverified,
+            Self::Partial(_) => StatusCode::Partial,
+            Self::Failed(_) => StatusCode::Failed,
+        }
+    }
+}
+
+impl CaseSummary {
+    /// Sets `status` (the message) and `status_code` (its kind) together.
+    pub fn set_status(&mut self, status: &CaseStatus) {
+        self.status_code = status.code();
+        self.status = status.to_string();
+    }
+
+    /// A summary with the given status and nothing else (e.g. a case that failed).
+    pub fn with_status(name: &str, status: &CaseStatus) -> Self {
+        let mut c = Self {
+            name: name.to_string(),
+            ..Self::default()
+        };
+        c.set_status(status);
+        c
+    }
 }
 
 impl std::fmt::Display for CaseStatus {
@@ -229,6 +318,14 @@ pub struct StabilityRun {
 }
 
 impl Summary {
+    /// The summary of a run of this build ([`ToolInfo::current`]) with these cases.
+    pub fn new(cases: Vec<CaseSummary>) -> Self {
+        Self {
+            tool: ToolInfo::current(),
+            cases,
+        }
+    }
+
     /// Pretty-printed JSON text (two-space indent, trailing newline).
     ///
     /// # Errors
