@@ -46,8 +46,78 @@ use crate::suslov::problem::SuslovProblem;
 use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
 use crate::suslov::stability::{stability_runs, PERTURBATION};
 
-/// Points of the output grid (trajectory.csv and figures).
+/// Uniform points of the output grid (trajectory.csv and figures) unless `--points` says
+/// otherwise; the mesh nodes are added to them ([`output_times`]).
 pub const OUTPUT_POINTS: usize = 2001;
+
+/// Allowed `--points`: at least the two ends; at most a million rows (about 170 MB of CSV).
+pub const OUTPUT_POINTS_RANGE: (usize, usize) = (2, 1_000_000);
+
+/// What the jobs write besides the solution's own data.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct OutputOptions {
+    /// Uniform points of `trajectory.csv`/`.npy` (the mesh nodes are added).
+    pub points: usize,
+}
+
+impl Default for OutputOptions {
+    fn default() -> Self {
+        Self {
+            points: OUTPUT_POINTS,
+        }
+    }
+}
+
+impl OutputOptions {
+    /// `points` checked against [`OUTPUT_POINTS_RANGE`].
+    ///
+    /// # Errors
+    /// [`AppError::InvalidArgument`] naming `--points` and the range.
+    pub fn with_points(points: usize) -> Result<Self, AppError> {
+        let (lo, hi) = OUTPUT_POINTS_RANGE;
+        if (lo..=hi).contains(&points) {
+            Ok(Self { points })
+        } else {
+            Err(AppError::InvalidArgument(format!(
+                "--points {points}: give between {lo} and {hi} uniform output points"
+            )))
+        }
+    }
+}
+
+/// The output grid of a solution on `[t0, t0 + span]`: `points` uniform times (the last one
+/// exactly `t0 + span`) and the mesh nodes `t0 + span x_i` (`x` on `[0, 1]`), in increasing
+/// order. A uniform time closer than a thousandth of the uniform step to a node is left out
+/// (the node stays), so no two rows are nearly equal (a difference quotient over the grid stays
+/// well conditioned).
+pub fn output_times(t0: f64, span: f64, points: usize, mesh: &[f64]) -> Vec<f64> {
+    let points = points.max(2);
+    let b = t0 + span;
+    let gap = 1e-3 * span.abs() / (points - 1) as f64;
+    let uniform = (0..points).map(|k| {
+        if k + 1 == points {
+            b
+        } else {
+            t0 + span * k as f64 / (points - 1) as f64
+        }
+    });
+    // The end nodes exactly (x = 0, 1).
+    let nodes: Vec<f64> = mesh
+        .iter()
+        .map(|x| if *x >= 1.0 { b } else { t0 + span * x })
+        .collect();
+    let mut t: Vec<f64> = uniform
+        .filter(|u| {
+            let k = nodes.partition_point(|n| n < u);
+            let near = |i: usize| nodes.get(i).is_some_and(|n| (n - u).abs() <= gap);
+            !(near(k) || (k > 0 && near(k - 1)))
+        })
+        .chain(nodes.iter().copied())
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t.dedup();
+    t
+}
 
 /// What the jobs report while running.
 #[derive(Debug)]
@@ -88,16 +158,12 @@ pub enum AppError {
     InvalidArgument(String),
 }
 
-/// Sample a solution on a uniform grid of `[a, b]` with `Ω_d`.
+/// Sample a solution with `Ω_d` on its output grid ([`output_times`]: `points` uniform times
+/// of `[a, b]` and the mesh nodes).
 pub fn trajectory_table(sol: &SuslovSolution, points: usize) -> TrajectoryTable {
-    let (a, b) = (sol.problem.t0, sol.terminal_time());
+    let g = &sol.generic;
     let mut table = TrajectoryTable::default();
-    for k in 0..points {
-        let t = if k + 1 == points {
-            b
-        } else {
-            a + (b - a) * k as f64 / (points - 1) as f64
-        };
+    for t in output_times(g.problem.t0, g.t_span, points, &g.bvp.x) {
         let y = sol.state(t);
         let block = |r: std::ops::Range<usize>| -> [f64; DIM] {
             y[r].try_into().expect("a state block has DIM entries")
@@ -173,6 +239,10 @@ fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
         .flat_map(|stem| [format!("{stem}.csv"), format!("{stem}.npy")])
         .collect();
     names.extend(
+        [Outputs::Final, Outputs::Unverified, Outputs::Partial]
+            .map(|k| format!("{}.csv", collocation_stem(k))),
+    );
+    names.extend(
         report::Figure::ALL
             .iter()
             .map(|f| format!("{}.{}", f.stem(), FigureFormat::Png.extension())),
@@ -191,15 +261,25 @@ enum Outputs {
     Partial,
 }
 
+/// The stem of the collocation solution's file ([`lie::collocation_csv`]) for each kind of
+/// outputs, marked as the trajectory's is.
+fn collocation_stem(kind: Outputs) -> &'static str {
+    match kind {
+        Outputs::Final => "collocation",
+        Outputs::Unverified => "collocation.unverified",
+        Outputs::Partial => "collocation.partial",
+    }
+}
+
 fn write_case_outputs(
     out: &mut OutputDir,
     sub: &Path,
     sol: &SuslovSolution,
     title: &str,
-    kind: Outputs,
+    (kind, output): (Outputs, &OutputOptions),
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<(), AppError> {
-    let table = trajectory_table(sol, OUTPUT_POINTS);
+    let table = trajectory_table(sol, output.points);
     let stem = match kind {
         Outputs::Final => "trajectory",
         Outputs::Unverified => "trajectory.unverified",
@@ -215,6 +295,11 @@ fn write_case_outputs(
         &report::trajectory_npy_bytes(&table)?,
     )?;
     events(AppEvent::Wrote(&npy));
+    let colloc = out.write(
+        sub.join(format!("{}.csv", collocation_stem(kind))),
+        lie::collocation_csv(&sol.generic).as_bytes(),
+    )?;
+    events(AppEvent::Wrote(&colloc));
     if kind != Outputs::Final {
         return Ok(());
     }
@@ -278,9 +363,9 @@ fn write_case_outputs(
 pub fn run_case(
     name: &str,
     problem: &SuslovProblem,
-    out: &mut OutputDir,
-    sub: &Path,
+    (out, sub): (&mut OutputDir, &Path),
     options: &SolveOptions,
+    output: &OutputOptions,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<CaseSummary, AppError> {
     events(AppEvent::CaseStarted { name });
@@ -295,7 +380,7 @@ pub fn run_case(
             } else {
                 Outputs::Unverified
             };
-            write_case_outputs(out, sub, &sol, name, kind, events)?;
+            write_case_outputs(out, sub, &sol, name, (kind, output), events)?;
             s
         }
         Err(SolveError::StageFailed {
@@ -316,7 +401,7 @@ pub fn run_case(
             s.set_status(&CaseStatus::Partial(format!(
                 "stage '{stage}' stopped{at}: {reason}"
             )));
-            write_case_outputs(out, sub, &partial, name, Outputs::Partial, events)?;
+            write_case_outputs(out, sub, &partial, name, (Outputs::Partial, output), events)?;
             s
         }
         Err(e) => CaseSummary {
@@ -346,6 +431,15 @@ pub fn run_case(
 /// `DIR/summary.json` last ([`OutputDir`]: the directory is locked for the run and holds
 /// exactly this run's files afterwards). Returns the summary.
 pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary, AppError> {
+    run_paper_with(out, &OutputOptions::default(), events)
+}
+
+/// [`run_paper`] with the given [`OutputOptions`].
+pub fn run_paper_with(
+    out: &Path,
+    output: &OutputOptions,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Summary, AppError> {
     let mut dir = OutputDir::open(out)?;
     dir.check_free(
         paper::CASES
@@ -371,9 +465,9 @@ pub fn run_paper(out: &Path, events: &mut dyn FnMut(AppEvent)) -> Result<Summary
         let mut summary_case = run_case(
             case.name,
             &paper::problem(case.eta),
-            &mut dir,
-            Path::new(case.name),
+            (&mut dir, Path::new(case.name)),
             &options,
+            output,
             events,
         )?;
         summary_case.input = Some(input.to_json());
@@ -411,11 +505,21 @@ pub fn run_solve(
     out: &Path,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Summary, AppError> {
+    run_solve_with(config_path, out, &OutputOptions::default(), events)
+}
+
+/// [`run_solve`] with the given [`OutputOptions`].
+pub fn run_solve_with(
+    config_path: &Path,
+    out: &Path,
+    output: &OutputOptions,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<Summary, AppError> {
     let (loaded, text) = match config::load_any(config_path)? {
         (config::Loaded::So3(loaded), text) => (loaded, text),
         (config::Loaded::Other(file), text) => {
             return crate::model::with_model!(file.model.as_str(), M => {
-                lie::run_model_solve::<M>(&file, &text, config_path, out, events)
+                lie::run_model_solve::<M>(&file, &text, (config_path, out), output, events)
             }, _ => unreachable!("config::load_any returns generated model names only"))
         }
     };
@@ -434,9 +538,9 @@ pub fn run_solve(
     let mut case = run_case(
         &loaded.name,
         &loaded.problem,
-        &mut dir,
-        Path::new(""),
+        (&mut dir, Path::new("")),
         &loaded.options,
+        output,
         events,
     )?;
     case.input = Some(loaded.resolved.to_json());

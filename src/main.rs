@@ -54,6 +54,10 @@ enum Command {
         /// Output directory (created if missing).
         #[arg(long, default_value = "out")]
         out: PathBuf,
+        /// Uniform points of trajectory.csv/.npy, 2 to 1000000 (the mesh nodes are added;
+        /// collocation.csv holds the collocation solution itself).
+        #[arg(long, default_value_t = app::OUTPUT_POINTS, value_parser = points_arg)]
+        points: usize,
     },
     /// Solve your own problem, described in a TOML file (schema: README, "Your own
     /// problems"), verified, with summary.json, trajectory.csv, figures and a copy of the
@@ -64,6 +68,10 @@ enum Command {
         /// Output directory (created if missing) [default: out/<the problem file's stem>].
         #[arg(long)]
         out: Option<PathBuf>,
+        /// Uniform points of trajectory.csv/.npy, 2 to 1000000 (the mesh nodes are added;
+        /// collocation.csv holds the collocation solution itself).
+        #[arg(long, default_value_t = app::OUTPUT_POINTS, value_parser = points_arg)]
+        points: usize,
     },
     /// Accessibility rank test of Suslov's pure equations (paper section 4.3) for any model
     /// (--model): rank of V = [g_1 .. g_n, [g_i, g_j]] and its singular values at one state
@@ -383,6 +391,17 @@ impl Reporter {
     }
 }
 
+/// `--points`: a whole number in [`app::OUTPUT_POINTS_RANGE`].
+fn points_arg(text: &str) -> Result<usize, String> {
+    let n: usize = text
+        .trim()
+        .parse()
+        .map_err(|_| format!("{text:?} is not a whole number"))?;
+    app::OutputOptions::with_points(n)
+        .map(|o| o.points)
+        .map_err(|e| e.to_string())
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
     install_signal_handlers();
@@ -492,16 +511,24 @@ fn main() -> ExitCode {
                 Err(e) => fail(&e),
             }
         }
-        Command::Paper { out } => solved(
-            app::run_paper(&out, &mut |e| reporter.event(e)),
+        Command::Paper { out, points } => solved(
+            app::run_paper_with(&out, &app::OutputOptions { points }, &mut |e| {
+                reporter.event(e)
+            }),
             &out,
             cli.quiet,
             cli.json,
         ),
-        Command::Solve { config, out } => {
+        Command::Solve {
+            config,
+            out,
+            points,
+        } => {
             let out = out.unwrap_or_else(|| default_solve_out(&config));
             solved(
-                app::run_solve(&config, &out, &mut |e| reporter.event(e)),
+                app::run_solve_with(&config, &out, &app::OutputOptions { points }, &mut |e| {
+                    reporter.event(e)
+                }),
                 &out,
                 cli.quiet,
                 cli.json,

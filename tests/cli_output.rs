@@ -290,3 +290,102 @@ fn a_run_records_its_input_and_solving_that_repeats_it() {
     assert_eq!(case["terminal_time"], sa["cases"][0]["terminal_time"]);
     assert_eq!(case["cost"], sa["cases"][0]["cost"]);
 }
+
+fn csv_rows(path: &Path) -> (Vec<String>, Vec<Vec<f64>>) {
+    let text = std::fs::read_to_string(path).unwrap();
+    let mut lines = text.lines();
+    let header = lines.next().unwrap().split(',').map(String::from).collect();
+    let rows = lines
+        .map(|l| l.split(',').map(|c| c.parse().unwrap()).collect())
+        .collect();
+    (header, rows)
+}
+
+/// `--points N`: N uniform rows plus the mesh nodes in trajectory.csv; collocation.csv holds
+/// the collocation solution itself (3N + 1 points of the final mesh, the interior flag, values
+/// and time derivatives), which agrees with the trajectory at the nodes and whose derivative
+/// columns are the derivatives of the solution (checked against difference quotients of the
+/// dense output on a fine grid, and against the trajectory's own rows).
+#[test]
+fn the_output_grid_has_the_mesh_nodes_and_the_collocation_solution_is_written() {
+    let dir = scratch("points");
+    let out = dir.join("o");
+    let o = run(
+        &[
+            "solve",
+            example("segment.toml").to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--points",
+            "11",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let nodes = summary_of(&out)["cases"][0]["mesh_nodes"].as_u64().unwrap() as usize;
+    let (th, traj) = csv_rows(&out.join("trajectory.csv"));
+    let (ch, colloc) = csv_rows(&out.join("collocation.csv"));
+    assert_eq!(th[0], "t");
+    assert_eq!(&ch[..3], ["t", "interior", "omega1"]);
+    assert_eq!(ch.len(), 2 + 2 * 12);
+    assert_eq!(ch[14], "d_omega1");
+    assert_eq!(colloc.len(), 3 * (nodes - 1) + 1);
+    // 11 uniform times and every node (the two ends are both).
+    assert!(
+        traj.len() >= nodes && traj.len() <= nodes + 9,
+        "{} rows",
+        traj.len()
+    );
+    let node_rows: Vec<&Vec<f64>> = colloc.iter().filter(|r| r[1] == 0.0).collect();
+    assert_eq!(node_rows.len(), nodes);
+    for (k, r) in colloc.iter().enumerate() {
+        assert_eq!(r[1], if k % 3 == 0 { 0.0 } else { 1.0 });
+    }
+    for node in &node_rows {
+        let row = traj
+            .iter()
+            .find(|r| r[0] == node[0])
+            .unwrap_or_else(|| panic!("node t = {} not in trajectory.csv", node[0]));
+        for c in 0..12 {
+            assert!((row[1 + c] - node[2 + c]).abs() <= 1e-12 * (1.0 + node[2 + c].abs()));
+        }
+    }
+    // The derivative columns: central differences of the values at interior points around
+    // each node are not available, so compare with the trajectory at fine resolution.
+    let fine = dir.join("fine");
+    let o = run(
+        &[
+            "solve",
+            example("segment.toml").to_str().unwrap(),
+            "--out",
+            fine.to_str().unwrap(),
+            "--points",
+            "200001",
+        ],
+        &dir,
+    );
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let (_, f) = csv_rows(&fine.join("trajectory.csv"));
+    let mut checked = 0;
+    for r in colloc.iter().step_by(7) {
+        let i = f.partition_point(|row| row[0] < r[0]);
+        if i < 2 || i + 2 >= f.len() {
+            continue;
+        }
+        let (a, b) = (&f[i - 2], &f[i + 2]);
+        for c in 0..12 {
+            let d = (b[1 + c] - a[1 + c]) / (b[0] - a[0]);
+            let scale = 1.0 + r[14 + c].abs();
+            assert!(
+                (d - r[14 + c]).abs() < 1e-4 * scale,
+                "t = {}, column {}: {} vs difference {}",
+                r[0],
+                ch[14 + c],
+                r[14 + c],
+                d
+            );
+        }
+        checked += 1;
+    }
+    assert!(checked > 10, "{checked}");
+}

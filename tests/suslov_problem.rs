@@ -123,11 +123,18 @@ fn the_paper_job_writes_complete_outputs() {
                  omegad1,omegad2,omegad3"
             )
         );
-        assert_eq!(lines.count(), suslov::app::OUTPUT_POINTS);
+        // The uniform points and the mesh nodes (the ends are both).
+        let rows = lines.count();
+        let uniform = suslov::app::OUTPUT_POINTS;
+        assert!(
+            rows >= uniform.max(case.mesh_nodes) && rows <= uniform + case.mesh_nodes - 2,
+            "{rows} rows, {} nodes",
+            case.mesh_nodes
+        );
         let npy = std::fs::read(dir.join(&case.name).join("trajectory.npy")).expect("npy");
         assert_eq!(&npy[..6], b"\x93NUMPY");
         let hlen = u16::from_le_bytes([npy[8], npy[9]]) as usize;
-        assert_eq!(npy.len(), 10 + hlen + suslov::app::OUTPUT_POINTS * 16 * 8);
+        assert_eq!(npy.len(), 10 + hlen + rows * 16 * 8);
         for fig in ["omega_3d", "constraint", "xi_norm", "kappa", "omega"] {
             let png = std::fs::read(dir.join(&case.name).join(format!("{fig}.png"))).expect(fig);
             assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
@@ -186,9 +193,9 @@ fn a_failing_stage_writes_a_marked_partial_result_and_says_where() {
     let summary = suslov::app::run_case(
         "capped",
         &problem,
-        &mut out,
-        std::path::Path::new(""),
+        (&mut out, std::path::Path::new("")),
         &options,
+        &suslov::app::OutputOptions::default(),
         &mut |_| {},
     )
     .expect("outputs written");

@@ -85,9 +85,9 @@ fn run_case_records_an_unverified_loose_solve_in_summary_json() {
     let case = suslov::app::run_case(
         "segment",
         &loaded.problem,
-        &mut out,
-        std::path::Path::new(""),
+        (&mut out, std::path::Path::new("")),
         &options,
+        &suslov::app::OutputOptions::default(),
         &mut |_| {},
     )
     .expect("outputs written");

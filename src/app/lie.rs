@@ -39,6 +39,9 @@ fn files() -> Vec<std::path::PathBuf> {
         "trajectory.csv",
         "trajectory.unverified.csv",
         "trajectory.partial.csv",
+        "collocation.csv",
+        "collocation.unverified.csv",
+        "collocation.partial.csv",
         "motion.csv",
         "path.png",
     ]
@@ -52,7 +55,8 @@ fn csv_number(s: &mut String, x: f64) {
     let _ = write!(s, "{x:e}");
 }
 
-/// `t, <state names>, omega_d1..n` on `points` uniform times of `[a, b]`.
+/// `t, <state names>, omega_d1..n` on the output grid ([`super::output_times`]: `points`
+/// uniform times of `[a, b]` and the mesh nodes).
 fn trajectory_csv<M: Model>(sol: &LieSolution<M>, points: usize) -> String {
     let n = M::DIM;
     let mut header = vec!["t".to_string()];
@@ -60,21 +64,53 @@ fn trajectory_csv<M: Model>(sol: &LieSolution<M>, points: usize) -> String {
     header.extend((1..=n).map(|i| format!("omega_d{i}")));
     let mut s = header.join(",");
     s.push('\n');
-    let (a, b) = (sol.problem.t0, sol.terminal_time());
     let mut y = vec![0.0; M::N_STATE];
     let mut jet = vec![0.0; 4 * n];
-    for k in 0..points {
-        let t = if k + 1 == points {
-            b
-        } else {
-            a + (b - a) * k as f64 / (points - 1) as f64
-        };
+    for t in super::output_times(sol.problem.t0, sol.t_span, points, &sol.bvp.x) {
         sol.state_into(t, &mut y);
         sol.problem.desired.jet_into(t, &mut jet);
         csv_number(&mut s, t);
         for v in y.iter().chain(&jet[..n]) {
             s.push(',');
             csv_number(&mut s, *v);
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// The collocation solution itself (`collocation.csv`): at every collocation point in time
+/// order — each mesh node and the two interior points of each interval, `3N + 1` rows —
+/// `t`, `interior` (0 at a mesh node, 1 at an interior point), the states (`<state names>`)
+/// and their time derivatives (`d_<state name>`). These are the values the collocation
+/// equations hold for, not interpolated ones, and they define the solution everywhere: on
+/// `[t_i, t_{i+1}]` it is the value at `t_i` plus the integral of the cubic that interpolates
+/// the derivatives at the interval's four points (what `trajectory.csv` samples).
+pub fn collocation_csv<M: Model>(sol: &LieSolution<M>) -> String {
+    let mut header = vec!["t".to_string(), "interior".to_string()];
+    header.extend(M::STATE_NAMES.iter().map(|s| s.to_string()));
+    header.extend(M::STATE_NAMES.iter().map(|s| format!("d_{s}")));
+    let mut s = header.join(",");
+    s.push('\n');
+    let (x, y, dy) = sol.bvp.collocation_points();
+    let n = M::N_STATE;
+    let (t0, span) = (sol.problem.t0, sol.t_span);
+    for (k, ((x, row), drow)) in x
+        .iter()
+        .zip(y.chunks_exact(n))
+        .zip(dy.chunks_exact(n))
+        .enumerate()
+    {
+        csv_number(&mut s, t0 + span * x);
+        s.push_str(if k % 3 == 0 { ",0" } else { ",1" });
+        for v in row {
+            s.push(',');
+            csv_number(&mut s, *v);
+        }
+        // The BVP runs on s = (t - t0) / span: d/dt = (d/ds) / span.
+        for v in drow {
+            s.push(',');
+            csv_number(&mut s, v / span);
         }
         s.push('\n');
     }
@@ -389,8 +425,8 @@ use crate::lie::Problem;
 pub fn run_model_solve<M: Model>(
     file: &ModelFile,
     text: &str,
-    config_path: &Path,
-    out: &Path,
+    (config_path, out): (&Path, &Path),
+    output: &super::OutputOptions,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<report::Summary, AppError> {
     let LoadedModelProblem {
@@ -419,16 +455,17 @@ pub fn run_model_solve<M: Model>(
     let mut case = match result {
         Ok(sol) => {
             let (mut c, verified) = summarize(&name, &sol);
-            let stem = if verified {
-                "trajectory.csv"
+            let (stem, colloc) = if verified {
+                ("trajectory.csv", "collocation.csv")
             } else {
-                "trajectory.unverified.csv"
+                ("trajectory.unverified.csv", "collocation.unverified.csv")
             };
             write(
                 &mut dir,
                 stem,
-                trajectory_csv(&sol, OUTPUT_POINTS).as_bytes(),
+                trajectory_csv(&sol, output.points).as_bytes(),
             )?;
+            write(&mut dir, colloc, collocation_csv(&sol).as_bytes())?;
             if verified {
                 match motion(&sol, OUTPUT_POINTS) {
                     Ok(Some(m)) => {
@@ -478,7 +515,12 @@ pub fn run_model_solve<M: Model>(
             write(
                 &mut dir,
                 "trajectory.partial.csv",
-                trajectory_csv(&partial, OUTPUT_POINTS).as_bytes(),
+                trajectory_csv(&partial, output.points).as_bytes(),
+            )?;
+            write(
+                &mut dir,
+                "collocation.partial.csv",
+                collocation_csv(&partial).as_bytes(),
             )?;
             c
         }

@@ -396,6 +396,28 @@ impl Solution {
         out
     }
 
+    /// The collocation points in order — node `x_i`, the interior points `x_i + c_2 h_i`,
+    /// `x_i + c_3 h_i` of interval `i`, …, the last node (`3N + 1` points) — with the solution's
+    /// values and derivatives there (row-major `(3N + 1) × n` each): exactly the data of the
+    /// dense output, since on `[x_i, x_{i+1}]` the solution is `y_i` plus the integral of the
+    /// cubic that interpolates its four derivative samples.
+    pub fn collocation_points(&self) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
+        let (n, nn) = (self.n, self.x.len() - 1);
+        let mut x = Vec::with_capacity(3 * nn + 1);
+        let mut dy = Vec::with_capacity((3 * nn + 1) * n);
+        for i in 0..nn {
+            let h = self.x[i + 1] - self.x[i];
+            x.push(self.x[i]);
+            x.push(self.x[i] + self.tab.c[1] * h);
+            x.push(self.x[i] + self.tab.c[2] * h);
+            dy.extend_from_slice(&self.yp[i * n..(i + 1) * n]);
+            dy.extend_from_slice(&self.stage_f[2 * i * n..(2 * i + 2) * n]);
+        }
+        x.push(self.x[nn]);
+        dy.extend_from_slice(&self.yp[nn * n..(nn + 1) * n]);
+        (x, self.collocation_values(), dy)
+    }
+
     /// Interval containing `x` and local coordinate `t` (outside `[a, b]` the end
     /// polynomials are extrapolated).
     fn locate(&self, x: f64) -> (usize, f64) {
