@@ -1,5 +1,5 @@
 //! The measurements behind the windowed `reintegration` check (issue #12;
-//! `REINTEGRATION_WINDOW_ANGLE` in `src/lie/checks.rs`, README "What 'converged' means"). All
+//! `REINTEGRATION_WINDOW_ANGLE` in `src/lie/checks.rs`, docs/verification.md). All
 //! A measurement program (it prints, asserts nothing; the assertions on the check are in
 //! `tests/suslov_verify.rs`), one of:
 //!

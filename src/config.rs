@@ -151,7 +151,7 @@ pub const MAX_INITIAL_INTERVALS: usize = 10_000;
 /// on 2 of 4 examples, 1e-11 on all. Above 1e-3 the estimate stops being an error bound on
 /// a mesh that coarse (`tolerance = 1` "converged" with 4 nodes); and a solve is called
 /// converged only at a tolerance of at most [`crate::lie::checks::TOL_MAX`] = 1e-4 (the
-/// a-posteriori checks, README "What 'converged' means"), so the range ends there: a file
+/// a-posteriori checks, docs/verification.md), so the range ends there: a file
 /// that passes validation can converge. The paper uses 1e-8.
 pub const TOLERANCE_RANGE: (f64, f64) = (crate::lie::checks::TOL_MIN, crate::lie::checks::TOL_MAX);
 

@@ -1,6 +1,6 @@
 //! `suslov`: the command line, a thin shell over [`suslov::app`].
 //!
-//! Exit statuses (README, "What happens on failure"):
+//! Exit statuses (docs/failures.md, and README "When a problem does not solve"):
 //!
 //! | status | meaning |
 //! |---|---|

@@ -201,6 +201,7 @@ fn a_later_run_leaves_no_stale_files_of_an_earlier_one() {
     assert_eq!(
         got,
         [
+            "collocation.partial.csv",
             "notes.txt",
             "problem.toml",
             "summary.json",

@@ -278,7 +278,7 @@ fn bad_model_files_get_messages_that_name_the_field_and_the_fix() {
 }
 
 /// The certificate of the paper's η = 1 case as the so(3) layer's own certificate recorded it
-/// (README, "Local minimum or not": 377 intervals, KKT inertia (+10189, −6792, 0), μ_min in
+/// (docs/certificate.md: 377 intervals, KKT inertia (+10189, −6792, 0), μ_min in
 /// [0.0493, 0.0493]); the generic certificate was checked equal to it (margin to 1e-6
 /// relative, the same inertia) before the so(3) copy was removed.
 #[test]

@@ -1,6 +1,6 @@
 //! "Converged" is gated by the a-posteriori checks (`suslov::lie::verify`): a loose tolerance is
 //! never reported converged, the paper's cases still are (unchanged), the measured ratios
-//! behind the thresholds (README, "What 'converged' means") hold, and a stage that fails says
+//! behind the thresholds (docs/verification.md) hold, and a stage that fails says
 //! so in its `StageFinished` event.
 
 use std::path::Path;
@@ -339,7 +339,7 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
         .iter()
         .all(|s| s.outcome == "completed"));
 
-    // A start that fails (the paper's problem forced to the segment start, README "Choices
+    // A start that fails (the paper's problem forced to the segment start, docs/paper.md "Choices
     // made") ends its stage with the reason too.
     // One route: one stage event.
     let options = SolveOptions {

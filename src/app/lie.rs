@@ -25,7 +25,7 @@ use crate::model::{Model, ParamMeta};
 use crate::reconstruct::{reconstruct, ReconstructOptions, Representation, StepSize};
 use crate::report::{self, CaseStatus, CaseSummary, OutputDir};
 
-use super::{finish, finite, stage_summaries_of, AppError, AppEvent, OUTPUT_POINTS};
+use super::{finish, finite, stage_summaries_of, AppError, AppEvent};
 
 /// Heading ticks drawn along the planar path (`path.png`).
 const PATH_HEADINGS: usize = 25;
@@ -135,7 +135,7 @@ fn is_planar_rigid(k: usize, flat: &[f64]) -> bool {
         })
 }
 
-/// The reconstructed motion `ġ = g Ω̂`, `g(a) = 1` (see [`Motion`]); `None` without a matrix
+/// The reconstructed motion `ġ = g Ω̂`, `g(a) = 1` (see [`Motion`]) at the rows of `trajectory.csv`; `None` without a matrix
 /// representation.
 fn motion<M: Model>(sol: &LieSolution<M>, points: usize) -> Result<Option<Motion>, String> {
     let Some((k, flat)) = M::REPRESENTATION else {
@@ -143,15 +143,8 @@ fn motion<M: Model>(sol: &LieSolution<M>, points: usize) -> Result<Option<Motion
     };
     let rep = Representation::new(M::DIM, k, flat.to_vec()).map_err(|e| e.to_string())?;
     let (a, b) = (sol.problem.t0, sol.terminal_time());
-    let times: Vec<f64> = (0..points)
-        .map(|i| {
-            if i + 1 == points {
-                b
-            } else {
-                a + (b - a) * i as f64 / (points - 1) as f64
-            }
-        })
-        .collect();
+    // The rows of trajectory.csv.
+    let times = super::output_times(a, sol.t_span, points, &sol.bvp.x);
     let mut identity = vec![0.0; k * k];
     for i in 0..k {
         identity[i * k + i] = 1.0;
@@ -467,7 +460,7 @@ pub fn run_model_solve<M: Model>(
             )?;
             write(&mut dir, colloc, collocation_csv(&sol).as_bytes())?;
             if verified {
-                match motion(&sol, OUTPUT_POINTS) {
+                match motion(&sol, output.points) {
                     Ok(Some(m)) => {
                         write(&mut dir, "motion.csv", m.csv.as_bytes())?;
                         c.extra.insert(

@@ -9,7 +9,7 @@
 //!
 //! - `tol_eff = clamp(tol, TOL_MIN, TOL_MAX)`: the thresholds were calibrated by solving
 //!   the paper's cases and every problem in `examples/` at tolerances `TOL_MIN ..= TOL_MAX`
-//!   (README, "What 'converged' means"); a looser tolerance is judged at `TOL_MAX` and, in
+//!   (docs/verification.md); a looser tolerance is judged at `TOL_MAX` and, in
 //!   addition, fails the [`TOLERANCE`] check, a tighter one is judged at `TOL_MIN`;
 //! - `K` a named constant below, chosen at least 10 times above the largest
 //!   `quantity / (tol · scale)` measured on a good solve (the table in the README);
