@@ -29,7 +29,7 @@
 //! delta = 0.2                        # >= 0, optional, default 0
 //!
 //! [desired]                          # Ω_d(t)
-//! kind = "paper-spiral"              # or "segment", "constant", "samples"
+//! kind = "paper-spiral"              # or "segment", "constant", "samples", "expression"
 //! c = 10.0                           # paper-spiral: optional, default 10
 //! width = 0.01                       # paper-spiral: optional, default 0.01 (> 0)
 //! b_d = 10.0                         # paper-spiral: optional, default 10
@@ -56,6 +56,10 @@
 //!   the natural cubic spline through them ([`SampledPath`], C², linear beyond the last
 //!   sample) projected radially onto the energy ellipsoid ([`Projected`]); its end point is
 //!   the projected last sample and its end time the last `t`.
+//!
+//! - `"expression"`: `components = ["<formula in t>", …]` (one per component), optional
+//!   `constants = { name = value, … }` and `end_time` ([`crate::lie::expression`]): exact derivatives over dual numbers, projected radially onto
+//!   the energy ellipsoid; its end point is its value at `end_time`.
 //!
 //! `omega_b = "desired_end"` takes `Ω_b` = the desired path's end point (which must lie on
 //! the energy ellipsoid). A free terminal time's `guess` defaults to the path's end time
@@ -93,7 +97,7 @@ use serde::Deserialize;
 
 use crate::model::generated::DIM;
 use crate::suslov::desired::{
-    Constant, DesiredPath, PaperSpiral, Projected, ProjectedSegment, SampledPath,
+    Constant, DesiredPath, PaperSpiral, Projected, ProjectedPath, ProjectedSegment, SampledPath,
 };
 use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
 use crate::suslov::problem::{
@@ -369,6 +373,13 @@ pub struct DesiredSection {
     pub interval: Option<Numbers<2>>,
     /// samples: the CSV file (relative to the problem file).
     pub file: Option<String>,
+    /// expression: one formula in `t` per component.
+    pub components: Option<Vec<String>>,
+    /// expression: named constants the formulas may use.
+    pub constants: Option<std::collections::BTreeMap<String, f64>>,
+    /// expression: the path's end time (its end point for `omega_b = "desired_end"`, the
+    /// default guess of a free terminal time).
+    pub end_time: Option<f64>,
 }
 
 /// `[solver]`: every key optional, defaults of [`SolveOptions`].
@@ -1333,6 +1344,9 @@ fn reject_unused(d: &DesiredSection, kind: &str, allowed: &[&str]) -> Result<(),
         ("to", d.to.is_some()),
         ("interval", d.interval.is_some()),
         ("file", d.file.is_some()),
+        ("components", d.components.is_some()),
+        ("constants", d.constants.is_some()),
+        ("end_time", d.end_time.is_some()),
     ];
     for (key, is_set) in present {
         if is_set && !allowed.contains(&key) {
@@ -1351,6 +1365,82 @@ fn reject_unused(d: &DesiredSection, kind: &str, allowed: &[&str]) -> Result<(),
         }
     }
     Ok(())
+}
+
+/// `kind = "expression"` (any model): `components` (one formula in `t` per component, `n` of
+/// them), `constants` (optional names for numbers) and `end_time` (optional), parsed into a
+/// path with exact derivatives ([`crate::lie::expression`]); with the resolved `[desired]`
+/// keys. An error names the component and the character position.
+pub(crate) fn expression_path(
+    d: &DesiredSection,
+    n: usize,
+) -> Result<(crate::lie::expression::Expression, toml::Table), ConfigError> {
+    let components = d.components.as_ref().ok_or_else(|| {
+        missing(
+            "desired.components",
+            format!(
+                "add components = [\"<formula in t>\", ...] under [desired], {n} of them, e.g. \
+                 components = [\"3 cos(0.5 t)\", \"3 sin(0.5 t)\", \"1\"] for n = 3"
+            ),
+        )
+    })?;
+    if components.len() != n {
+        return Err(ConfigError::Length {
+            field: "desired.components".into(),
+            found: components.len(),
+            expected: n,
+            meaning: "one formula in t per component".into(),
+        });
+    }
+    let constants: Vec<(String, f64)> = d
+        .constants
+        .iter()
+        .flatten()
+        .map(|(k, v)| {
+            Ok((
+                k.clone(),
+                finite(&format!("desired.constants.{}", clip(k)), *v)?,
+            ))
+        })
+        .collect::<Result<_, ConfigError>>()?;
+    let expression =
+        crate::lie::expression::Expression::parse(components, &constants).map_err(|(i, e)| {
+            ConfigError::Invalid {
+                field: format!("desired.components[{i}]"),
+                message: format!(
+                    "{:?}: {e}; a formula uses t, numbers, + - * / ^, parentheses, pi, the \
+                     functions sin cos tan exp log sqrt sinh cosh tanh asin acos atan and the \
+                     names of desired.constants",
+                    clip(&components[i])
+                ),
+            }
+        })?;
+    let mut keys = toml::Table::new();
+    keys.insert("kind".into(), toml::Value::String("expression".into()));
+    keys.insert(
+        "components".into(),
+        toml::Value::Array(
+            components
+                .iter()
+                .map(|c| toml::Value::String(c.clone()))
+                .collect(),
+        ),
+    );
+    if !constants.is_empty() {
+        keys.insert(
+            "constants".into(),
+            toml::Value::Table(
+                constants
+                    .iter()
+                    .map(|(k, v)| (k.clone(), toml::Value::Float(*v)))
+                    .collect(),
+            ),
+        );
+    }
+    if let Some(t) = d.end_time {
+        keys.insert("end_time".into(), toml::Value::Float(t));
+    }
+    Ok((expression, keys))
 }
 
 /// `[desired]` of the resolved input: `kind` and the given keys (scalars for one number).
@@ -1468,7 +1558,7 @@ enum Terminal {
     Free(Option<f64>),
 }
 
-const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"";
+const KINDS: &str = "\"paper-spiral\", \"segment\", \"constant\", \"samples\" or \"expression\"";
 
 /// What is wrong with the rows of a samples file ([`parse_samples`]); lines are 1-based.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -1998,6 +2088,19 @@ impl ProblemFile {
                  \"desired_end\" under [boundary]",
             )
         })?;
+        if matches!(omega_b_spec, OmegaBSpec::DesiredEnd)
+            && !desired.end_point.iter().all(|v| v.is_finite())
+        {
+            return Err(missing(
+                "desired.end_time",
+                format!(
+                    "omega_b = \"desired_end\" takes the desired path's end point, and kind = \
+                     \"{}\" has none: add end_time = <t> under [desired], or give omega_b = \
+                     [x, y, z]",
+                    desired.kind
+                ),
+            ));
+        }
         let omega_b = match omega_b_spec {
             OmegaBSpec::DesiredEnd => desired.end_point,
             OmegaBSpec::Vector(v) => vector3("boundary.omega_b", v)?,
@@ -2386,6 +2489,37 @@ impl ProblemFile {
                         },
                         Some(raw),
                     ),
+                })
+            }
+            "expression" => {
+                reject_unused(d, kind, &["components", "constants", "end_time"])?;
+                let (expression, keys) = expression_path(d, DIM)?;
+                let end_time = d
+                    .end_time
+                    .map(|t| finite("desired.end_time", t))
+                    .transpose()?;
+                let path = ProjectedPath {
+                    inner: Arc::new(crate::suslov::desired::FromLiePath(Arc::new(expression))),
+                    ellipsoid: *ellipsoid,
+                };
+                // Without an end time there is no end point: "desired_end" says so (NaN is
+                // caught there).
+                let end_point = end_time.map_or(Vector3::from_element(f64::NAN), |t| path.value(t));
+                Ok(Desired {
+                    kind: "expression",
+                    path: Arc::new(path),
+                    end_point,
+                    start_hint: "the formulas at t0, projected radially onto the energy \
+                                 ellipsoid, must give omega_a",
+                    end_time,
+                    overflow: (
+                        "desired.components",
+                        "a formula or one of its first three derivatives is not finite there \
+                         (e.g. log or sqrt of a negative number, a division by zero, or an \
+                         overflow): change the formula",
+                    ),
+                    special_times: end_time.into_iter().collect(),
+                    resolved: (keys, None),
                 })
             }
             other => Err(ConfigError::Invalid {

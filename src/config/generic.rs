@@ -25,7 +25,8 @@
 //! [constraint]                       # only models with a constraint value, its parameters:
 //! c = 0.5                            # so3_inhomogeneous: <Omega, xi> = c
 //!
-//! [desired]                          # Ω_d(t): "segment" (default), "constant" or "samples"
+//! [desired]                          # Ω_d(t): "segment" (default), "constant", "samples" or
+//!                                    # "expression" (formulas in t, as for so3)
 //! kind = "segment"                   # from/to (default omega_a/omega_b), interval
 //!
 //! [solver]                           # as for so3 (see crate::config)
@@ -463,6 +464,7 @@ pub(crate) fn build<M: Model>(
     }
     // The desired path (before projection) and its end time.
     let mut samples_bytes = None;
+    let mut expression_keys = None;
     let (raw, end): (Option<Arc<dyn LiePath>>, Option<EndPoint>) = match kind.as_str() {
         "constant" => {
             only_keys(desired_t, "desired", &["kind", "value"])?;
@@ -496,13 +498,36 @@ pub(crate) fn build<M: Model>(
             let last = (times[times.len() - 1], values[values.len() - 1].clone());
             (Some(Arc::new(s)), Some(last))
         }
+        "expression" => {
+            only_keys(
+                desired_t,
+                "desired",
+                &["kind", "components", "constants", "end_time"],
+            )?;
+            let d: super::DesiredSection =
+                toml::Value::Table(desired_t.clone()).try_into().map_err(
+                    |e: toml::de::Error| invalid("desired", super::plain_words(e.message())),
+                )?;
+            let (expression, keys) = super::expression_path(&d, M::DIM)?;
+            expression_keys = Some(keys);
+            let end = match d.end_time {
+                Some(t) => {
+                    let t = number("desired.end_time", &toml::Value::Float(t))?;
+                    let mut v = vec![0.0; M::DIM];
+                    expression.value_into(t, &mut v);
+                    Some((t, v))
+                }
+                None => None,
+            };
+            (Some(Arc::new(expression) as Arc<dyn LiePath>), end)
+        }
         "segment" => (None, None),
         other => {
             return Err(invalid(
                 "desired.kind",
                 format!(
-                    "unknown kind {:?} for model {}; use \"segment\", \"constant\" or \
-                     \"samples\"",
+                    "unknown kind {:?} for model {}; use \"segment\", \"constant\", \
+                     \"samples\" or \"expression\"",
                     clip(other),
                     M::NAME
                 ),
@@ -514,15 +539,22 @@ pub(crate) fn build<M: Model>(
             ("segment", _) => {
                 return Err(invalid(
                     "boundary.omega_b",
-                    "\"desired_end\" needs a desired path with an end point (constant or \
-                     samples); for a segment give omega_b itself",
+                    "\"desired_end\" needs a desired path with an end point (constant, \
+                     samples, or expression with end_time); for a segment give omega_b itself",
                 ))
             }
             (_, Some((_, v))) if conserves_energy => set
                 .project(v)
                 .map_err(|e| invalid("boundary.omega_b", e.to_string()))?,
             (_, Some((_, v))) => v.clone(),
-            _ => unreachable!("constant and samples have an end point"),
+            _ => {
+                return Err(ConfigError::Missing {
+                    field: "desired.end_time".into(),
+                    fix: "omega_b = \"desired_end\" takes the desired path's end point: add \
+                          end_time = <t> under [desired], or give omega_b itself"
+                        .into(),
+                })
+            }
         }
     } else {
         vector("boundary.omega_b", omega_b_spec, n, meaning)?
@@ -693,6 +725,11 @@ pub(crate) fn build<M: Model>(
             d.insert("from".into(), floats(from));
             d.insert("to".into(), floats(to));
             d.insert("interval".into(), floats(interval));
+        }
+        if let Some(keys) = expression_keys {
+            for (k, v) in keys {
+                d.insert(k, v);
+            }
         }
         if let Some(raw) = samples_bytes {
             d.insert("file".into(), toml::Value::String(SAMPLES_FILE.into()));

@@ -109,6 +109,27 @@ impl crate::lie::path::Path for AsLiePath {
     }
 }
 
+/// A path of the generic layer in three dimensions as a [`DesiredPath`] (the reverse of
+/// [`AsLiePath`]): e.g. a formula path ([`crate::lie::expression::Expression`]) in an so(3)
+/// problem file. Its `dim()` must be 3.
+#[derive(Clone)]
+pub struct FromLiePath(pub Arc<dyn crate::lie::path::Path>);
+
+impl DesiredPath for FromLiePath {
+    fn jet(&self, t: f64) -> Jet {
+        use crate::model::generated::DIM;
+        let mut out = [0.0; 4 * DIM];
+        self.0.jet_into(t, &mut out);
+        let block = |k: usize| Vector3::from_column_slice(&out[k * DIM..(k + 1) * DIM]);
+        Jet {
+            value: block(0),
+            d1: block(1),
+            d2: block(2),
+            d3: block(3),
+        }
+    }
+}
+
 /// A desired body angular velocity with exact derivatives (dyn-compatible).
 pub trait DesiredPath {
     /// Value and first three derivatives at `t`.

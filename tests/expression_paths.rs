@@ -1,0 +1,147 @@
+//! `[desired] kind = "expression"`: a desired path as formulas in t, in the problem files of
+//! so(3) and of the other models. Its jet (value and three derivatives, exact over dual numbers,
+//! projected onto the energy level set like the other kinds) against the paper's spiral φ_∥;
+//! end to end through `suslov solve`; every error names the key, the component and the position.
+
+use std::path::{Path, PathBuf};
+
+use suslov::config::{self, ConfigError, Loaded};
+use suslov::suslov::desired::DesiredPath;
+
+fn examples() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("examples")
+}
+
+fn problem_with(desired: &str, omega_b: &str) -> String {
+    format!(
+        r#"
+[body]
+inertia = [1.0, 2.0, 3.0]
+[boundary]
+omega_a = [5.0, 0.0, 0.0]
+omega_b = {omega_b}
+terminal_time = {{ fixed = 4.0 }}
+[cost]
+alpha = 1.0
+beta = 0.1
+gamma = 1.0
+[desired]
+{desired}
+"#
+    )
+}
+
+/// The paper's φ(t) = [c, t cos t, t sin t] written as formulas, projected onto the paper's
+/// ellipsoid, has the jet of the library's φ_∥ (its own dual-number implementation) to rounding.
+#[test]
+fn a_formula_path_has_the_exact_jet_of_the_same_path_in_code() {
+    let text = problem_with(
+        "kind = \"expression\"\ncomponents = [\"c\", \"t cos(t)\", \"t sin(t)\"]\nconstants = { c = 10.0 }\nend_time = 4.0",
+        "\"desired_end\"",
+    );
+    let loaded = config::from_toml_str(&text).unwrap();
+    let spiral = suslov::suslov::desired::PaperSpiral::paper();
+    let reference = spiral.phi_par();
+    let mut worst: f64 = 0.0;
+    for k in 0..=40 {
+        let t = 0.1 * f64::from(k);
+        let (a, b) = (loaded.problem.desired.jet(t), reference.jet(t));
+        for (x, y) in [(a.value, b.value), (a.d1, b.d1), (a.d2, b.d2), (a.d3, b.d3)] {
+            worst = worst.max((x - y).norm() / (1.0 + y.norm()));
+        }
+    }
+    assert!(worst < 1e-13, "jets differ by {worst}");
+    // omega_b = "desired_end": the path's value at end_time.
+    let end = reference.jet(4.0).value;
+    assert!((loaded.problem.omega_b - end).norm() < 1e-12 * end.norm());
+    // The resolved input keeps the formulas and the constants.
+    let t = &loaded.resolved.table["desired"];
+    assert_eq!(t["components"][1].as_str(), Some("t cos(t)"));
+    assert_eq!(t["constants"]["c"].as_float(), Some(10.0));
+}
+
+/// examples/expression.toml solves and verifies (its path lies on E exactly), and another
+/// model's file takes the same kind.
+#[test]
+fn formula_paths_solve_end_to_end() {
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("expression_paths_solve");
+    let summary =
+        suslov::app::run_solve(&examples().join("expression.toml"), &out, &mut |_| {}).unwrap();
+    let c = &summary.cases[0];
+    assert_eq!(c.status, "converged", "{}", c.status);
+    assert!(c.max_abs_constraint < 1e-8);
+    // se(2): the sleigh tracking a formula path, fixed time.
+    let se2 = std::fs::read_to_string(examples().join("se2_sleigh.toml")).unwrap();
+    let se2 = se2.replace(
+        "kind = \"segment\"",
+        "kind = \"expression\"\ncomponents = [\"1.0 - 0.3 t\", \"0.5 + 0.05 t\", \"0.05 t\"]",
+    );
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("expression_paths_se2");
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("sleigh.toml");
+    std::fs::write(&file, se2).unwrap();
+    let Loaded::Other(f) = config::load_any(&file).unwrap().0 else {
+        panic!("se2 file")
+    };
+    let l = f.build::<suslov::model::se2::Se2>().unwrap();
+    let mut v = vec![0.0; 3];
+    l.problem.desired.value_into(2.0, &mut v);
+    assert!(v.iter().all(|x| x.is_finite()), "{v:?}");
+    assert_eq!(
+        l.resolved.table["desired"]["kind"].as_str(),
+        Some("expression")
+    );
+}
+
+fn error_of(desired: &str, omega_b: &str) -> (ConfigError, String) {
+    let e = config::from_toml_str(&problem_with(desired, omega_b)).unwrap_err();
+    let msg = e.to_string();
+    (e, msg)
+}
+
+#[test]
+fn formula_errors_name_the_component_and_the_position() {
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"sin(t\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.components[1]"), "{msg}");
+    assert!(msg.contains("at character"), "{msg}");
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"k t\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.components[1]"), "{msg}");
+    assert!(msg.contains('k'), "{msg}");
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.components"), "{msg}");
+    assert!(msg.contains('3'), "{msg}");
+    // Outside its domain on [t0, b]: log(t - 2) for t < 2.
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"log(t - 2)\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.components"), "{msg}");
+    assert!(msg.contains("not finite"), "{msg}");
+    // "desired_end" needs an end time.
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"0\", \"0\"]",
+        "\"desired_end\"",
+    );
+    assert_eq!(e.field(), Some("desired.end_time"), "{msg}");
+    // Keys of other kinds are refused.
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"0\", \"0\"]\nc = 1.0",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.c"), "{msg}");
+    // A path that does not start at omega_a (gamma > 0).
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5 cos(t + 1)\", \"5 sin(t + 1)\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert!(matches!(e, ConfigError::DesiredStart { .. }), "{msg}");
+}
