@@ -236,7 +236,13 @@ fn finite(v: f64) -> Option<f64> {
 fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
     let mut names: Vec<String> = ["trajectory", "trajectory.unverified", "trajectory.partial"]
         .iter()
-        .flat_map(|stem| [format!("{stem}.csv"), format!("{stem}.npy")])
+        .flat_map(|stem| {
+            [
+                format!("{stem}.csv"),
+                format!("{stem}.npy"),
+                format!("{stem}.npz"),
+            ]
+        })
         .collect();
     names.extend(
         [Outputs::Final, Outputs::Unverified, Outputs::Partial]
@@ -295,6 +301,11 @@ fn write_case_outputs(
         &report::trajectory_npy_bytes(&table)?,
     )?;
     events(AppEvent::Wrote(&npy));
+    let npz = out.write(
+        sub.join(format!("{stem}.npz")),
+        &report::trajectory_npz_bytes(&table)?,
+    )?;
+    events(AppEvent::Wrote(&npz));
     let colloc = out.write(
         sub.join(format!("{}.csv", collocation_stem(kind))),
         lie::collocation_csv(&sol.generic).as_bytes(),

@@ -206,7 +206,8 @@ fn a_later_run_leaves_no_stale_files_of_an_earlier_one() {
             "problem.toml",
             "summary.json",
             "trajectory.partial.csv",
-            "trajectory.partial.npy"
+            "trajectory.partial.npy",
+            "trajectory.partial.npz"
         ],
         "{got:?}"
     );

@@ -389,3 +389,58 @@ fn the_output_grid_has_the_mesh_nodes_and_the_collocation_solution_is_written() 
     }
     assert!(checked > 10, "{checked}");
 }
+
+/// `trajectory.npz` holds one named array per column of `trajectory.csv`, read here by an
+/// independent reader (Python's `zipfile`, the `.npy` header parsed by `ast`, the data by
+/// `array`: numpy itself is not needed), for so(3) and for another model.
+#[test]
+fn the_npz_archive_has_the_csv_columns_by_name() {
+    let dir = scratch("npz");
+    for (example_file, stem) in [("segment.toml", "so3"), ("se2_sleigh.toml", "se2")] {
+        let out = dir.join(stem);
+        let o = run(
+            &[
+                "solve",
+                example(example_file).to_str().unwrap(),
+                "--out",
+                out.to_str().unwrap(),
+                "--points",
+                "101",
+            ],
+            &dir,
+        );
+        assert_eq!(o.status.code(), Some(0), "{o:?}");
+        let script = r#"
+import ast, sys, zipfile, array, csv
+z = zipfile.ZipFile(sys.argv[1])
+assert z.testzip() is None, "CRC mismatch"
+rows = list(csv.reader(open(sys.argv[2])))
+header, body = rows[0], rows[1:]
+assert sorted(n[:-4] for n in z.namelist()) == sorted(header), (z.namelist(), header)
+for k, name in enumerate(header):
+    raw = z.read(name + ".npy")
+    assert raw[:8] == b"\x93NUMPY\x01\x00"
+    hlen = int.from_bytes(raw[8:10], "little")
+    head = ast.literal_eval(raw[10:10 + hlen].decode("latin1"))
+    assert head["descr"] == "<f8" and head["shape"] == (len(body),), head
+    values = array.array("d")
+    values.frombytes(raw[10 + hlen:])
+    for r, v in zip(body, values):
+        assert float(r[k]) == v, (name, r[k], v)
+print(len(header), len(body))
+"#;
+        let py = std::process::Command::new("python3")
+            .args([
+                "-c",
+                script,
+                out.join("trajectory.npz").to_str().unwrap(),
+                out.join("trajectory.csv").to_str().unwrap(),
+            ])
+            .output()
+            .expect("python3 (the README's test command needs it too)");
+        assert!(py.status.success(), "{stem}: {}", text(&py.stderr));
+        let printed = text(&py.stdout);
+        let columns: usize = printed.split_whitespace().next().unwrap().parse().unwrap();
+        assert_eq!(columns, 1 + 12 + 3, "{printed}"); // t, the 12 states, Ω_d (both models: n = 3)
+    }
+}

@@ -378,7 +378,7 @@ fn desired_kinds_unknown_or_misparametrized() {
         &msg,
         &[
             "unknown kind \"spiral\"",
-            "\"paper-spiral\", \"segment\", \"constant\" or \"samples\"",
+            "\"paper-spiral\", \"segment\", \"constant\", \"samples\" or \"expression\"",
         ],
     );
 

@@ -39,6 +39,9 @@ fn files() -> Vec<std::path::PathBuf> {
         "trajectory.csv",
         "trajectory.unverified.csv",
         "trajectory.partial.csv",
+        "trajectory.npz",
+        "trajectory.unverified.npz",
+        "trajectory.partial.npz",
         "collocation.csv",
         "collocation.unverified.csv",
         "collocation.partial.csv",
@@ -55,28 +58,58 @@ fn csv_number(s: &mut String, x: f64) {
     let _ = write!(s, "{x:e}");
 }
 
-/// `t, <state names>, omega_d1..n` on the output grid ([`super::output_times`]: `points`
-/// uniform times of `[a, b]` and the mesh nodes).
-fn trajectory_csv<M: Model>(sol: &LieSolution<M>, points: usize) -> String {
+/// The columns of `trajectory.csv`/`.npz`: their names (`t`, the state names, `omega_d1..n`)
+/// and values on the output grid ([`super::output_times`]: `points` uniform times of `[a, b]`
+/// and the mesh nodes).
+fn trajectory_columns<M: Model>(
+    sol: &LieSolution<M>,
+    points: usize,
+) -> (Vec<String>, Vec<Vec<f64>>) {
     let n = M::DIM;
-    let mut header = vec!["t".to_string()];
-    header.extend(M::STATE_NAMES.iter().map(|s| s.to_string()));
-    header.extend((1..=n).map(|i| format!("omega_d{i}")));
-    let mut s = header.join(",");
-    s.push('\n');
+    let mut names = vec!["t".to_string()];
+    names.extend(M::STATE_NAMES.iter().map(|s| s.to_string()));
+    names.extend((1..=n).map(|i| format!("omega_d{i}")));
+    let times = super::output_times(sol.problem.t0, sol.t_span, points, &sol.bvp.x);
+    let mut columns = vec![Vec::with_capacity(times.len()); names.len()];
     let mut y = vec![0.0; M::N_STATE];
     let mut jet = vec![0.0; 4 * n];
-    for t in super::output_times(sol.problem.t0, sol.t_span, points, &sol.bvp.x) {
+    for t in times {
         sol.state_into(t, &mut y);
         sol.problem.desired.jet_into(t, &mut jet);
-        csv_number(&mut s, t);
-        for v in y.iter().chain(&jet[..n]) {
-            s.push(',');
-            csv_number(&mut s, *v);
+        for (col, v) in columns
+            .iter_mut()
+            .zip(std::iter::once(&t).chain(&y).chain(&jet[..n]))
+        {
+            col.push(*v);
+        }
+    }
+    (names, columns)
+}
+
+/// `trajectory.csv` from [`trajectory_columns`].
+fn trajectory_csv(names: &[String], columns: &[Vec<f64>]) -> String {
+    let mut s = names.join(",");
+    s.push('\n');
+    for row in 0..columns.first().map_or(0, Vec::len) {
+        for (k, col) in columns.iter().enumerate() {
+            if k > 0 {
+                s.push(',');
+            }
+            csv_number(&mut s, col[row]);
         }
         s.push('\n');
     }
     s
+}
+
+/// `trajectory.npz` from [`trajectory_columns`]: one named array per column.
+fn trajectory_npz(names: &[String], columns: &[Vec<f64>]) -> Result<Vec<u8>, AppError> {
+    let named: Vec<(&str, &[f64])> = names
+        .iter()
+        .zip(columns)
+        .map(|(n, c)| (n.as_str(), c.as_slice()))
+        .collect();
+    Ok(report::npz_bytes(&named)?)
 }
 
 /// The collocation solution itself (`collocation.csv`): at every collocation point in time
@@ -449,14 +482,20 @@ pub fn run_model_solve<M: Model>(
         Ok(sol) => {
             let (mut c, verified) = summarize(&name, &sol);
             let (stem, colloc) = if verified {
-                ("trajectory.csv", "collocation.csv")
+                ("trajectory", "collocation.csv")
             } else {
-                ("trajectory.unverified.csv", "collocation.unverified.csv")
+                ("trajectory.unverified", "collocation.unverified.csv")
             };
+            let (names, columns) = trajectory_columns(&sol, output.points);
             write(
                 &mut dir,
-                stem,
-                trajectory_csv(&sol, output.points).as_bytes(),
+                &format!("{stem}.csv"),
+                trajectory_csv(&names, &columns).as_bytes(),
+            )?;
+            write(
+                &mut dir,
+                &format!("{stem}.npz"),
+                &trajectory_npz(&names, &columns)?,
             )?;
             write(&mut dir, colloc, collocation_csv(&sol).as_bytes())?;
             if verified {
@@ -505,10 +544,16 @@ pub fn run_model_solve<M: Model>(
             c.set_status(&CaseStatus::Partial(format!(
                 "stage '{stage}' stopped{at}: {reason}"
             )));
+            let (names, columns) = trajectory_columns(&partial, output.points);
             write(
                 &mut dir,
                 "trajectory.partial.csv",
-                trajectory_csv(&partial, output.points).as_bytes(),
+                trajectory_csv(&names, &columns).as_bytes(),
+            )?;
+            write(
+                &mut dir,
+                "trajectory.partial.npz",
+                &trajectory_npz(&names, &columns)?,
             )?;
             write(
                 &mut dir,

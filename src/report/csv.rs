@@ -244,6 +244,33 @@ pub fn trajectory_npy_bytes(table: &TrajectoryTable) -> Result<Vec<u8>, ReportEr
     Ok(out)
 }
 
+/// The table as a numpy `.npz` archive of named columns (the names of
+/// [`TRAJECTORY_CSV_HEADER`]: `numpy.load("trajectory.npz")["omega1"]`).
+///
+/// # Errors
+/// [`ReportError::LengthMismatch`] for inconsistent columns.
+pub fn trajectory_npz_bytes(table: &TrajectoryTable) -> Result<Vec<u8>, ReportError> {
+    table.validate()?;
+    let mut columns: Vec<Vec<f64>> = vec![table.t.clone()];
+    for block in [
+        &table.omega,
+        &table.xi,
+        &table.xi_dot,
+        &table.kappa,
+        &table.omega_d,
+    ] {
+        for k in 0..block.first().map_or(0, |r| r.len()) {
+            columns.push(block.iter().map(|r| r[k]).collect());
+        }
+    }
+    let named: Vec<(&str, &[f64])> = TRAJECTORY_CSV_HEADER
+        .split(',')
+        .zip(&columns)
+        .map(|(n, c)| (n, c.as_slice()))
+        .collect();
+    super::npz_bytes(&named)
+}
+
 /// Writes [`trajectory_npy_bytes`] atomically to `path`.
 ///
 /// # Errors

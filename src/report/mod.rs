@@ -42,6 +42,7 @@ mod certificate;
 mod csv;
 mod error;
 mod figures;
+mod npz;
 mod number;
 mod outdir;
 mod summary;
@@ -50,14 +51,15 @@ mod table;
 pub use atomic::{is_temporary_name, probe_writable, remove_in_flight, write_atomic, TEMP_PREFIX};
 pub use certificate::CertificateReport;
 pub use csv::{
-    parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, write_trajectory_csv,
-    write_trajectory_npy, DESIRED_COLUMN_PREFIX, TRAJECTORY_CSV_HEADER,
+    parse_trajectory_csv, trajectory_csv_string, trajectory_npy_bytes, trajectory_npz_bytes,
+    write_trajectory_csv, write_trajectory_npy, DESIRED_COLUMN_PREFIX, TRAJECTORY_CSV_HEADER,
 };
 pub use error::ReportError;
 pub use figures::{
     render_figure_bytes, render_planar_path_png, write_case_figures, write_figure, Figure,
     FigureFormat, FigureOptions,
 };
+pub use npz::{npy_1d_bytes, npz_bytes};
 pub use number::significant;
 pub use outdir::{
     belongs_to_a_run, OutputDir, INCOMPLETE_FILE, LOCK_FILE, MANIFEST_FILE, SUMMARY_FILE,
