@@ -28,14 +28,18 @@
 //! let problem = paper::problem(0.01); // free terminal time, published b = 9.84
 //! let solution = solve(&problem, &SolveOptions::default(), &mut |_event| {})?;
 //! assert!((solution.terminal_time() - 9.84).abs() < 0.01);
+//! assert!((solution.cost() - 2.66585).abs() < 1e-5); // J = ∫ C dt
 //! let checks = diagnose(&solution.generic);
 //! assert!(checks.max_abs_constraint < 1e-9); // ⟨Ω, ξ⟩ = 0 on a fine grid
 //! // "Converged" means every a-posteriori check passed at the requested tolerance:
-//! assert!(suslov::lie::verify_solution(&solution.generic).verification.passed());
+//! assert!(solution.verify().verification.passed());
 //! let y = solution.state(5.0); // [Ω, ξ, ξ̇, κ] at t = 5, in the generated layout
 //! assert_eq!(y.len(), suslov::model::generated::N_STATE);
 //! let omega = &y[suslov::model::generated::OMEGA];
 //! assert_eq!(omega.len(), suslov::model::generated::DIM); // Ω
+//! // On an array of times:
+//! let rows = solution.states_at(&[0.0, 2.5, solution.terminal_time()]);
+//! assert_eq!(rows.len(), 3);
 //! # Ok::<(), suslov::suslov::solve::SolveError>(())
 //! ```
 //!
@@ -70,6 +74,41 @@
 //! assert!((omega_end - omega_b).norm() < 1e-8);
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
+
+//!
+//! # Example: a problem file, any model
+//!
+//! The problem files of `suslov solve` (README, "Your own problems") are read by [`config`];
+//! the same text gives the same problem as the command line solves:
+//!
+//! ```
+//! let text = r#"
+//! [body]
+//! inertia = [1.0, 2.0, 3.0]
+//! [boundary]
+//! omega_a = [3.0, 0.0, 0.0]
+//! omega_b = [1.0, 2.0, 0.0]
+//! terminal_time = { fixed = 4.0 }
+//! [cost]
+//! alpha = 1.0
+//! beta = 0.1
+//! gamma = 0.0
+//! "#;
+//! let loaded = suslov::config::from_toml_str(text)?;
+//! let problem = loaded.problem.to_generic()?; // the generic layer's problem (model so3)
+//! let solution = suslov::lie::solve(&problem, &loaded.options, &mut |_event| {})?;
+//! assert!(solution.verify().verification.passed());
+//! assert_eq!(solution.terminal_time(), 4.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! # What is API and what is the command line's
+//!
+//! The API: [`solve`] and [`SuslovProblem`] (so(3), the paper's model), [`lie::solve()`] and
+//! [`lie::Problem`] (any generated model), the solutions' `cost`, `state`, `states_at` and
+//! `verify`, [`config`] to read problem files, [`lie::certify`] and [`lie::controllability`]. [`app`] and
+//! [`report`] are the command line's jobs and outputs (public so that tests and benchmarks run
+//! exactly what the command line runs).
 
 pub mod app;
 pub mod bvp;

@@ -603,25 +603,6 @@ pub fn for_solution<M: Model>(
     evidence(controls, cost, "the computed extremal", quadrature, free)
 }
 
-/// The cost of `sol`'s own control at the constants `params` (e.g. the target weights of a
-/// problem whose homotopy stopped at `sol`), by 5-point Gauss–Legendre on its mesh.
-pub fn cost_at<M: Model>(sol: &LieSolution<M>, params: &[f64]) -> f64 {
-    let bvp = super::problem::LieBvp::new(&sol.problem);
-    let mut y = vec![0.0; M::N_STATE];
-    let mut wd = vec![0.0; M::N_DESIRED];
-    let mut total = 0.0;
-    for w in sol.bvp.x.windows(2) {
-        let h = w[1] - w[0];
-        for (node, weight) in GAUSS5 {
-            let s = w[0] + node * h;
-            sol.bvp.eval_into(s, &mut y);
-            bvp.desired_at(sol.problem.t0 + s * sol.t_span, &mut wd);
-            total += weight * h * sol.t_span * M::cost_integrand(&y, params, &wd);
-        }
-    }
-    total
-}
-
 /// The evidence for a problem whose homotopy stopped at `partial`: the controls for `problem`
 /// (its target constants), and `partial`'s motion with a vanishing `ξ`, compared with the least
 /// verified fixed-time extremal of the value-function scan (`scan_least`) when there is one,
@@ -650,7 +631,7 @@ pub fn for_stop<M: Model>(
         ),
         None => evidence(
             controls,
-            cost_at(partial, problem.params()),
+            partial.cost_with(problem.params()),
             "the last solution's control at the target weights",
             0.0,
             free,

@@ -419,6 +419,48 @@ impl<M: Model> LieSolution<M> {
         self.state_into(t, &mut y);
         y
     }
+
+    /// The states at every time of `times` (each in `[a, b]`), row-major: `M::N_STATE` values
+    /// per time in the model's layout (`M::STATE_NAMES`).
+    pub fn states_at(&self, times: &[f64]) -> Vec<f64> {
+        let mut out = vec![0.0; times.len() * M::N_STATE];
+        for (t, y) in times.iter().zip(out.chunks_exact_mut(M::N_STATE)) {
+            self.state_into(*t, y);
+        }
+        out
+    }
+
+    /// The cost `J = ∫ C dt` at the problem's constants (5-point Gauss–Legendre on every mesh
+    /// interval; the value `summary.json` reports).
+    pub fn cost(&self) -> f64 {
+        self.cost_with(self.problem.params())
+    }
+
+    /// The cost of this solution's motion and control at other constants `params` (layout
+    /// `M::PARAM_NAMES`, e.g. the target weights of a problem whose homotopy stopped here).
+    pub fn cost_with(&self, params: &[f64]) -> f64 {
+        let bvp = super::problem::LieBvp::new(&self.problem);
+        let mut y = vec![0.0; M::N_STATE];
+        let mut wd = vec![0.0; M::N_DESIRED];
+        let mut total = 0.0;
+        for w in self.bvp.x.windows(2) {
+            let h = w[1] - w[0];
+            for (node, weight) in super::checks::GAUSS5 {
+                let s = w[0] + node * h;
+                self.bvp.eval_into(s, &mut y);
+                bvp.desired_at(self.problem.t0 + s * self.t_span, &mut wd);
+                total += weight * h * self.t_span * M::cost_integrand(&y, params, &wd);
+            }
+        }
+        total
+    }
+
+    /// The a-posteriori checks of this solution ([`super::verify_solution`]): its
+    /// diagnostics, the windowed re-integration and the verdict (`.verification.passed()`:
+    /// what "converged" means).
+    pub fn verify(&self) -> super::verify::Verified {
+        super::verify::verify_solution(self)
+    }
 }
 
 /// Why [`solve`] failed.

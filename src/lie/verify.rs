@@ -72,18 +72,7 @@ pub fn diagnose<M: Model>(sol: &LieSolution<M>) -> Diagnostics {
     let mesh = &sol.bvp.x;
     let n_state = M::N_STATE;
     let mut y = vec![0.0; n_state];
-    let mut wd = vec![0.0; M::N_DESIRED];
-
-    let mut cost = 0.0;
-    for w in mesh.windows(2) {
-        let h = w[1] - w[0];
-        for (node, weight) in GAUSS5 {
-            let s = w[0] + node * h;
-            sol.bvp.eval_into(s, &mut y);
-            bvp.desired_at(problem.t0 + s * t_span, &mut wd);
-            cost += weight * h * t_span * M::cost_integrand(&y, params, &wd);
-        }
-    }
+    let cost = sol.cost();
 
     let grid = fine_grid(&sol.bvp.x, FINE_PER_INTERVAL);
     let mut d = Diagnostics {

@@ -38,6 +38,22 @@ impl SuslovSolution {
         self.generic.state_into(t, &mut y);
         y
     }
+
+    /// The states at every time of `times`, one `[Ω, ξ, ξ̇, κ]` per time.
+    pub fn states_at(&self, times: &[f64]) -> Vec<[f64; N_STATE]> {
+        times.iter().map(|t| self.state(*t)).collect()
+    }
+
+    /// The cost `J = ∫ C dt` (the value `summary.json` reports).
+    pub fn cost(&self) -> f64 {
+        self.generic.cost()
+    }
+
+    /// The a-posteriori checks ([`LieSolution::verify`]): `.verification.passed()` is what
+    /// "converged" means.
+    pub fn verify(&self) -> crate::lie::verify::Verified {
+        self.generic.verify()
+    }
 }
 
 pub use crate::lie::solve::{
