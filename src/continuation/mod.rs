@@ -51,6 +51,9 @@ pub struct Options {
     pub hard_newton: usize,
     /// The BVP solver options of every corrector solve.
     pub bvp: bvp::Options,
+    /// Checked before every step: once set, the continuation stops
+    /// ([`ContinuationStatus::Stopped`]) at the last converged point.
+    pub stop: Option<std::sync::Arc<std::sync::atomic::AtomicBool>>,
 }
 
 impl Default for Options {
@@ -65,6 +68,7 @@ impl Default for Options {
             easy_newton: 4,
             hard_newton: 10,
             bvp: bvp::Options::default(),
+            stop: None,
         }
     }
 }
@@ -103,6 +107,11 @@ pub enum ContinuationStatus {
         /// Last converged parameter value.
         reached: f64,
     },
+    /// [`Options::stop`] was set; `reached` is the last converged value.
+    Stopped {
+        /// Last converged parameter value.
+        reached: f64,
+    },
 }
 
 impl ContinuationStatus {
@@ -126,6 +135,9 @@ impl std::fmt::Display for ContinuationStatus {
             ),
             ContinuationStatus::MaxSteps { reached } => {
                 write!(f, "maximum number of steps reached at lambda = {reached}")
+            }
+            ContinuationStatus::Stopped { reached } => {
+                write!(f, "stopped by the caller at lambda = {reached}")
             }
         }
     }
@@ -211,6 +223,17 @@ where
     let mut current = (lambda0, start.clone());
     let mut last_failure = Status::Converged;
     while current.0 != lambda1 {
+        if options
+            .stop
+            .as_ref()
+            .is_some_and(|s| s.load(std::sync::atomic::Ordering::Relaxed))
+        {
+            return Ok(finish(
+                ContinuationStatus::Stopped { reached: current.0 },
+                current,
+                records,
+            ));
+        }
         if records.len() >= options.max_steps {
             return Ok(finish(
                 ContinuationStatus::MaxSteps { reached: current.0 },

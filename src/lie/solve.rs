@@ -61,7 +61,7 @@
 use std::sync::Arc;
 
 use crate::bvp::{self, Guess, Solution};
-use crate::continuation::{self, StepRecord};
+use crate::continuation::{self, ContinuationStatus, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
 use super::path::{projected_segment, EndBlend, Path, Projected};
@@ -117,6 +117,57 @@ pub struct SolveOptions {
     pub max_routes: usize,
     /// A previous solution to start from ([`solve_from`]); [`solve`] then tries it first.
     pub warm_start: Option<Arc<WarmStart>>,
+    /// Stops the solve when set ([`StopFlag::stop`], e.g. from the event callback or
+    /// another thread): checked before every continuation step and every route; the solve
+    /// then returns [`LieSolveError::StageFailed`] at the last converged point, its reason
+    /// saying it was stopped, without trying other routes.
+    pub stop: Option<StopFlag>,
+}
+
+/// A flag that stops a running [`solve`] ([`SolveOptions::stop`]); clones share it.
+///
+/// ```
+/// use suslov::lie::solve::{Event, StopFlag};
+/// use suslov::{paper, solve, SolveError, SolveOptions};
+///
+/// let stop = StopFlag::new();
+/// let options = SolveOptions { stop: Some(stop.clone()), ..Default::default() };
+/// // Stop as soon as the first stage starts (a real caller might stop on a timer or a button).
+/// let result = solve(&paper::problem(0.01), &options, &mut |e| {
+///     if matches!(e, Event::StageStarted { .. }) {
+///         stop.stop();
+///     }
+/// });
+/// match result {
+///     Err(SolveError::StageFailed { reason, .. }) => assert!(reason.contains("stopped by the caller")),
+///     other => panic!("{other:?}"),
+/// }
+/// ```
+#[derive(Debug, Clone, Default)]
+pub struct StopFlag(Arc<std::sync::atomic::AtomicBool>);
+
+impl StopFlag {
+    /// A flag not yet set.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Ask the solve to stop.
+    pub fn stop(&self) {
+        self.0.store(true, std::sync::atomic::Ordering::Relaxed);
+    }
+
+    /// Whether [`StopFlag::stop`] was called.
+    pub fn is_stopped(&self) -> bool {
+        self.0.load(std::sync::atomic::Ordering::Relaxed)
+    }
+}
+
+impl SolveOptions {
+    /// Whether the caller asked the solve to stop ([`SolveOptions::stop`]).
+    fn stopped(&self) -> bool {
+        self.stop.as_ref().is_some_and(StopFlag::is_stopped)
+    }
 }
 
 impl Default for SolveOptions {
@@ -130,6 +181,7 @@ impl Default for SolveOptions {
             start: StartStrategy::Auto,
             max_routes: 7,
             warm_start: None,
+            stop: None,
         }
     }
 }
@@ -950,7 +1002,8 @@ impl<M: Model> Homotopy<'_, M> {
             Some(outcome.status.to_string())
         };
         let mut folds = Vec::new();
-        if let Some(natural_reason) = status.clone() {
+        let stopped = matches!(outcome.status, ContinuationStatus::Stopped { .. });
+        if let Some(natural_reason) = status.clone().filter(|_| !stopped) {
             // Natural continuation stalled: follow the branch by pseudo-arclength from the last
             // converged point, through folds, to λ = 1 if the branch gets there.
             let arc = continuation::ArclengthOptions {
@@ -1549,7 +1602,12 @@ fn solve_cold<M: Model>(
         stopped: Some(first.to_string()),
         seconds: clock.elapsed().as_secs_f64(),
     };
-    let Some(others) = alternatives(&first, options, problem) else {
+    let others = if options.stopped() {
+        None
+    } else {
+        alternatives(&first, options, problem)
+    };
+    let Some(others) = others else {
         let mut first = first;
         if let LieSolveError::StageFailed { partial, .. } = &mut first {
             partial.routes = vec![default_report];
@@ -1575,6 +1633,9 @@ fn solve_cold<M: Model>(
         .into_iter()
         .take(options.max_routes.saturating_sub(1))
     {
+        if options.stopped() {
+            break;
+        }
         let clock = std::time::Instant::now();
         let after = routes
             .last()
@@ -1607,11 +1668,15 @@ fn solve_cold<M: Model>(
         }
     }
     let mut scan = None;
-    if let LieSolveError::StageFailed {
-        stage: "delta" | "free-time start",
-        ..
-    } = &first
-    {
+    let scan_time = !options.stopped()
+        && matches!(
+            &first,
+            LieSolveError::StageFailed {
+                stage: "delta" | "free-time start",
+                ..
+            }
+        );
+    if scan_time {
         let clock = std::time::Instant::now();
         events(&Event::RouteStarted {
             route: TIME_SCAN,
@@ -1659,7 +1724,7 @@ fn solve_cold<M: Model>(
                 .iter()
                 .filter_map(|s| s.cost)
                 .min_by(f64::total_cmp);
-            if evidence == Evidence::Collapse {
+            if evidence == Evidence::Collapse && !options.stopped() {
                 partial.collapse = super::collapse::for_stop(problem, &partial, scan_least);
             }
             if let Some(found) = partial.collapse.as_ref().filter(|c| c.undercuts) {
@@ -2367,6 +2432,7 @@ fn continuation_options(options: &SolveOptions) -> continuation::Options {
             ..bvp_options(options, options.continuation_tol)
         },
         initial_step: Some(0.2),
+        stop: options.stop.as_ref().map(|s| s.0.clone()),
         ..Default::default()
     }
 }
