@@ -525,11 +525,28 @@ struct CondensedBlocks<'a> {
 /// finite.
 fn condense_range(jac: &StageJacobians, first: usize, out: CondensedBlocks) -> Result<(), usize> {
     avx2!(fn(jac: &StageJacobians, first: usize, out: CondensedBlocks) -> Result<(), usize> {
-        let Layout { n, .. } = jac.lay;
+        let Layout { n, k, .. } = jac.lay;
         let count = out.kpiv.len() / (2 * n);
         let mut out = out;
-        for i in first..first + count {
-            condense_interval(jac, i, i - first, &mut out)?;
+        // The common sizes with the dimensions as constants (the inlined kernels then have
+        // fixed trip counts: unrolled, no bounds checks); the same operations in the same
+        // order as the generic copy, so the same bits.
+        match (n, k) {
+            (12, 1) => {
+                for i in first..first + count {
+                    condense_interval(jac, i, i - first, &mut out, 12, 1)?;
+                }
+            }
+            (24, 1) => {
+                for i in first..first + count {
+                    condense_interval(jac, i, i - first, &mut out, 24, 1)?;
+                }
+            }
+            _ => {
+                for i in first..first + count {
+                    condense_interval(jac, i, i - first, &mut out, n, k)?;
+                }
+            }
         }
         Ok(())
     }, jac, first, out)
@@ -543,8 +560,10 @@ fn condense_interval(
     i: usize,
     at: usize,
     out: &mut CondensedBlocks,
+    n: usize,
+    k: usize,
 ) -> Result<(), usize> {
-    let Layout { n, k, .. } = jac.lay;
+    debug_assert_eq!((n, k), (jac.lay.n, jac.lay.k));
     let s = 2 * n;
     let wc = 2 * n + k;
     let (n2, nk) = (n * n, n * k);

@@ -56,6 +56,7 @@ pub(crate) use avx2;
 /// matrix is singular to working precision or contains NaN).
 #[inline(always)]
 pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
+    let a = &mut a[..n * n];
     let scale = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     if !scale.is_finite() {
         return false;
@@ -75,19 +76,20 @@ pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
         if best_val <= tiny || !best_val.is_finite() {
             return false;
         }
+        let (top, bottom) = a.split_at_mut((col + 1) * n);
+        let prow = &mut top[col * n..];
         if best != col {
-            for c in 0..n {
-                a.swap(col * n + c, best * n + c);
-            }
+            prow.swap_with_slice(&mut bottom[(best - col - 1) * n..(best - col) * n]);
         }
-        let inv = 1.0 / a[col * n + col];
-        for r in col + 1..n {
-            let l = a[r * n + col] * inv;
-            a[r * n + col] = l;
+        let prow = &prow[col..];
+        let inv = 1.0 / prow[0];
+        // Row updates as contiguous axpys (`y + (-l) x` is bitwise `y - l x`).
+        for row in bottom.chunks_exact_mut(n) {
+            let row = &mut row[col..];
+            let l = row[0] * inv;
+            row[0] = l;
             if l != 0.0 {
-                for c in col + 1..n {
-                    a[r * n + c] -= l * a[col * n + c];
-                }
+                axpy(&mut row[1..], -l, &prow[1..]);
             }
         }
     }
