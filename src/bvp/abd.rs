@@ -1,4 +1,5 @@
-//! Structured orthogonal factorisation of the bordered almost-block-diagonal Newton matrix.
+//! Structured factorisation (elimination, with orthogonal reduction as its fallback) of the
+//! bordered almost-block-diagonal Newton matrix.
 //!
 //! The condensed collocation matrix (see [`linear`](super::linear)) has `N` interval block
 //! rows `[A_i B_i | P_i]` coupling `y_i`, `y_{i+1}` and the `k` parameters, and `n + k`
@@ -23,23 +24,31 @@
 //! block rows have anyway), storage is one `2n x (3n + k)` block per interval, and nothing
 //! is allocated after `BorderedAbd::new`.
 //!
-//! Orthogonal transformations do not amplify rounding errors, which Gaussian elimination
-//! with partial pivoting restricted to this order can do on some well-conditioned boundary
-//! value problems (Wright 1993); the price is about twice the arithmetic of that
-//! elimination, small next to the condensation of the stages. Because Householder QR is
-//! not invariant under row scaling, the matrix is row-equilibrated first: every row is
-//! divided by its largest entry (so a boundary condition written in other units changes
-//! nothing), and `BorderedAbd::factor` factors `D J` with `D = diag(1 / max_j |J_rj|)`.
-//! The scaled factorisation is exposed as well: the condition estimate of the Newton matrix
-//! is taken for `D J`.
+//! Each `2n`-row block is first reduced by Gaussian elimination with partial pivoting
+//! inside the block (*structured elimination*, Wright 1992: the same carried-row scheme, `n`
+//! eliminations instead of `n` reflections, about half the arithmetic). That can amplify
+//! rounding errors on some well-conditioned boundary value problems (Wright 1993: pivoting
+//! restricted to the block order can keep picking the carried rows while the border
+//! columns grow geometrically), which orthogonal transformations cannot. So the elimination
+//! watches its growth and is abandoned for Householder QR of the same blocks when the
+//! growth exceeds `LU_GROWTH_LIMIT` (1e3) or a pivot falls below `LU_MIN_PIVOT` (1e-10) relative to
+//! its column (or is zero); `BorderedAbd::method` says which reduction the factors are.
+//! Because QR is not invariant under row scaling (nor is the choice of pivots), the matrix
+//! is row-equilibrated first: every row is divided by its largest entry (so a boundary
+//! condition written in other units changes nothing), and `BorderedAbd::factor` factors
+//! `D J` with `D = diag(1 / max_j |J_rj|)`. The scaled factorisation is exposed as well: the
+//! condition estimate of the Newton matrix is taken for `D J`.
 //!
 //! The factorisation reports its growth: the largest ratio, over the columns, of an entry of
-//! `R` to the 2-norm of that column of `D J`. Column `j` of `R` is `Q^T` applied to column `j`
-//! of `D J`, so for an orthogonal reduction the ratio is at most 1 (up to rounding) whatever
-//! the matrix; above that means a bug, not an unlucky matrix. (Gaussian elimination's
-//! growth factor has no such bound.) It also reports the smallest pivot relative to its
-//! column, `min_j |R_jj| / ||(D J)_j||_2`: the part of a column independent of the columns
-//! before it, small when the matrix is near singular.
+//! the triangular factor (`R` or `U`; for elimination also of every carried row, which are
+//! intermediate results) to the 2-norm of that column of `D J`. Column `j` of `R` is `Q^T`
+//! applied to column `j` of `D J`, so for the orthogonal reduction the ratio is at most 1
+//! (up to rounding) whatever the matrix; above that means a bug, not an unlucky matrix. For
+//! elimination it is the growth factor measured the same way: unbounded in principle, at most
+//! `LU_GROWTH_LIMIT` (1e3) when elimination is kept (2.8 and 8.1 on the paper's final meshes).
+//! It also reports the smallest pivot relative to its column, `min_j |U_jj| /
+//! ||(D J)_j||_2` (`R_jj` for QR: the part of a column independent of the columns before
+//! it): small when the matrix is near singular.
 //!
 //! # References
 //! * S. J. Wright, *Stable parallel algorithms for two-point boundary value problems*, SIAM
@@ -50,6 +59,35 @@
 //!   Ordinary Differential Equations*, SIAM 1995, ch. 7 (almost block diagonal systems).
 
 use super::dense::{avx2, axpy, dot};
+
+/// The reduction behind a factorisation (`BorderedAbd::method`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Factorization {
+    /// Gaussian elimination with partial pivoting inside every `2n`-row block.
+    #[default]
+    StructuredLu,
+    /// Householder QR of every `2n`-row block (the fallback).
+    StructuredQr,
+}
+
+impl Factorization {
+    /// A short name for reports: `"structured LU"` or `"structured QR"`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Factorization::StructuredLu => "structured LU",
+            Factorization::StructuredQr => "structured QR",
+        }
+    }
+}
+
+/// Elimination whose growth (largest reduced entry over its column's 2-norm) exceeds this
+/// is abandoned for the orthogonal reduction: it would cost up to that factor in backward
+/// error, against QR's bound of 1.
+pub(crate) const LU_GROWTH_LIMIT: f64 = 1e3;
+
+/// Elimination whose smallest pivot relative to its column is below this is abandoned for
+/// the orthogonal reduction (whose pivots then say how near singular the matrix is).
+pub(crate) const LU_MIN_PIVOT: f64 = 1e-10;
 
 /// Why a factorisation failed.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -74,11 +112,18 @@ pub(crate) struct BorderedAbd {
     /// columns), below the diagonal of the `y_t` columns are the Householder vectors, and the
     /// bottom `n` rows of the other columns are the carried rows.
     steps: Vec<f64>,
-    /// Householder scalars of every step (`n` each).
+    /// Householder scalars of every step (`n` each; QR).
     taus: Vec<f64>,
+    /// Row interchanges of every step (`n` each, rows of the `2n`-row block; LU).
+    pivots: Vec<usize>,
     /// The final column-major block of order `2n + k` in `(y_0, y_N, p)`, QR-factored.
     last: Vec<f64>,
     last_taus: Vec<f64>,
+    last_pivots: Vec<usize>,
+    /// The reduction of the last successful factorisation.
+    method: Factorization,
+    /// Whether to try structured LU first (tests switch it off to compare with QR).
+    try_lu: bool,
     /// `max_ij |R_ij| / ||(D J)_j||_2` of the last factorisation.
     growth: f64,
     /// `min_j |R_jj| / ||(D J)_j||_2` of the last factorisation.
@@ -105,8 +150,12 @@ impl BorderedAbd {
             row_scale: vec![0.0; intervals * n + n + k],
             steps: vec![0.0; eliminated * s * cols],
             taus: vec![0.0; eliminated * n],
+            pivots: vec![0; eliminated * n],
             last: vec![0.0; q * q],
             last_taus: vec![0.0; q],
+            last_pivots: vec![0; q],
+            method: Factorization::StructuredLu,
+            try_lu: true,
             growth: f64::NAN,
             min_pivot: f64::NAN,
             col_norm2: vec![0.0; (intervals + 1) * n + k],
@@ -125,6 +174,18 @@ impl BorderedAbd {
     /// The row scaling `D` of the last factorisation.
     pub fn row_scale(&self) -> &[f64] {
         &self.row_scale
+    }
+
+    /// The reduction of the last successful factorisation.
+    pub fn method(&self) -> Factorization {
+        self.method
+    }
+
+    /// Whether [`factor`](Self::factor) tries elimination first (default); `false` forces
+    /// the orthogonal reduction.
+    #[cfg(test)]
+    pub fn set_try_lu(&mut self, on: bool) {
+        self.try_lu = on;
     }
 
     /// Growth of the last successful factorisation: `max_ij |R_ij| / ||(D J)_j||_2` (at most
@@ -176,13 +237,57 @@ impl BorderedAbd {
                 self.col_norm2[po + c] += row[2 * n + c] * row[2 * n + c] * d2;
             }
         }
+        // Elimination first; orthogonal reduction if it grows or meets a tiny or zero pivot.
+        if self.try_lu
+            && self
+                .sweep_sized(values, Factorization::StructuredLu)
+                .is_ok()
+            && self.growth <= LU_GROWTH_LIMIT
+            && self.min_pivot >= LU_MIN_PIVOT
+        {
+            self.method = Factorization::StructuredLu;
+        } else {
+            self.sweep_sized(values, Factorization::StructuredQr)?;
+            self.method = Factorization::StructuredQr;
+        }
+        self.factored = true;
+        Ok(())
+    }
+
+    /// [`sweep`](Self::sweep) with the common dimensions as constants (fixed trip counts in
+    /// the inlined kernels; the same operations, so the same bits).
+    #[inline(always)]
+    fn sweep_sized(&mut self, values: &[f64], method: Factorization) -> Result<(), AbdError> {
+        match (self.n, self.k) {
+            (12, 1) => self.sweep(values, method, 12, 1),
+            (24, 1) => self.sweep(values, method, 24, 1),
+            (n, k) => self.sweep(values, method, n, k),
+        }
+    }
+
+    /// Reduce the row-scaled matrix (`row_scale` and `col_norm2` are set) by `method`; sets
+    /// `growth` and `min_pivot`. Elimination stops early (with an error) once its growth
+    /// exceeds `LU_GROWTH_LIMIT` (1e3).
+    #[inline(always)]
+    fn sweep(
+        &mut self,
+        values: &[f64],
+        method: Factorization,
+        n: usize,
+        k: usize,
+    ) -> Result<(), AbdError> {
+        let nn = self.intervals;
+        let lu = method == Factorization::StructuredLu;
+        let wc = 2 * n + k;
+        let po = (nn + 1) * n;
         let s = 2 * n;
         let cols = 3 * n + k;
         let block = s * cols;
         let mut growth = 0.0_f64;
         let mut min_pivot = f64::INFINITY;
         let col_norm2 = &self.col_norm2;
-        // max_i |R_ij| / ||(D J)_j|| over the top `top` rows of a column-major column.
+        let row_scale = &self.row_scale;
+        // max_i |col_i| / ||(D J)_j||.
         let ratio = |col: &[f64], j: usize| {
             let m = col.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
             if m == 0.0 {
@@ -193,7 +298,7 @@ impl BorderedAbd {
         };
         // Scaled entry (r, c) of the block row of interval i.
         let entry =
-            |i: usize, r: usize, c: usize| values[(i * n + r) * wc + c] * self.row_scale[i * n + r];
+            |i: usize, r: usize, c: usize| values[(i * n + r) * wc + c] * row_scale[i * n + r];
         for t in 1..nn {
             let (done, rest) = self.steps.split_at_mut((t - 1) * block);
             let step = &mut rest[..block];
@@ -237,19 +342,28 @@ impl BorderedAbd {
                     step[(3 * n + c) * s + n + r] = entry(t, r, 2 * n + c);
                 }
             }
-            let taus = &mut self.taus[(t - 1) * n..t * n];
-            householder_qr(step, s, n, cols, taus)?;
+            if lu {
+                lu_panel(step, s, n, cols, &mut self.pivots[(t - 1) * n..t * n])?;
+            } else {
+                householder_qr(step, s, n, cols, &mut self.taus[(t - 1) * n..t * n])?;
+            }
+            // Growth: the rows of R (U), and for elimination also the carried rows (they
+            // are intermediate results, which an orthogonal reduction keeps bounded anyway).
+            let rows = if lu { s } else { n };
             for c in 0..cols {
                 let (top, j) = match c / n {
                     0 => (c + 1, t * n + c),
-                    1 => (n, (t + 1) * n + c - n),
-                    2 => (n, c - 2 * n),
-                    _ => (n, po + c - 3 * n),
+                    1 => (rows, (t + 1) * n + c - n),
+                    2 => (rows, c - 2 * n),
+                    _ => (rows, po + c - 3 * n),
                 };
                 growth = growth.max(ratio(&step[c * s..c * s + top], j));
                 if c < n {
                     min_pivot = min_pivot.min(step[c * s + c].abs() / col_norm2[j].sqrt());
                 }
+            }
+            if lu && (growth > LU_GROWTH_LIMIT || growth.is_nan()) {
+                return Err(AbdError::Singular);
             }
         }
         // The last block: carried rows over the boundary rows, columns (y_0, y_N, p).
@@ -276,12 +390,16 @@ impl BorderedAbd {
         }
         for r in 0..n + k {
             let row = nn * n + r;
-            let d = self.row_scale[row];
+            let d = row_scale[row];
             for c in 0..wc {
                 last[c * q + n + r] = values[row * wc + c] * d;
             }
         }
-        householder_qr(last, q, q, q, &mut self.last_taus)?;
+        if lu {
+            lu_panel(last, q, q, q, &mut self.last_pivots)?;
+        } else {
+            householder_qr(last, q, q, q, &mut self.last_taus)?;
+        }
         for c in 0..q {
             let j = match c / n {
                 0 => c,
@@ -293,7 +411,6 @@ impl BorderedAbd {
         }
         self.growth = growth;
         self.min_pivot = min_pivot;
-        self.factored = true;
         Ok(())
     }
 
@@ -332,13 +449,25 @@ impl BorderedAbd {
         for t in 1..nn {
             let step = &self.steps[(t - 1) * block..t * block];
             v[n..s].copy_from_slice(&x[t * n..(t + 1) * n]);
-            apply_qt(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s]);
+            match self.method {
+                Factorization::StructuredLu => {
+                    apply_lu(step, s, n, &self.pivots[(t - 1) * n..t * n], &mut v[..s])
+                }
+                Factorization::StructuredQr => {
+                    apply_qt(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s])
+                }
+            }
             x[t * n..(t + 1) * n].copy_from_slice(&v[..n]);
             v.copy_within(n..s, 0);
         }
         // The last block: [carried; boundary rows] -> (y_0, y_N, p).
         v[n..q].copy_from_slice(&x[nn * n..nn * n + n + k]);
-        apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q]);
+        match self.method {
+            Factorization::StructuredLu => {
+                apply_lu(&self.last, q, q, &self.last_pivots, &mut v[..q])
+            }
+            Factorization::StructuredQr => apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q]),
+        }
         solve_upper(&self.last, q, q, &mut v[..q]);
         x[..n].copy_from_slice(&v[..n]);
         x[nn * n..nn * n + n + k].copy_from_slice(&v[n..q]);
@@ -418,14 +547,26 @@ impl BorderedAbd {
         }
         solve_upper_transpose(&self.last, q, q, &mut v[..q]);
         // x = Q w: the last block's reflections, then every step's in reverse.
-        apply_q(&self.last, q, q, &self.last_taus, &mut v[..q]);
+        match self.method {
+            Factorization::StructuredLu => {
+                apply_lu_transpose(&self.last, q, q, &self.last_pivots, &mut v[..q])
+            }
+            Factorization::StructuredQr => apply_q(&self.last, q, q, &self.last_taus, &mut v[..q]),
+        }
         x[nn * n..nn * n + n + k].copy_from_slice(&v[n..q]);
         for t in (1..nn).rev() {
             let step = &self.steps[(t - 1) * block..t * block];
             // [carried_{t-1}; x_t] = Q_t [w_t; carried_t].
             v.copy_within(0..n, n);
             v[..n].copy_from_slice(&x[t * n..(t + 1) * n]);
-            apply_q(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s]);
+            match self.method {
+                Factorization::StructuredLu => {
+                    apply_lu_transpose(step, s, n, &self.pivots[(t - 1) * n..t * n], &mut v[..s])
+                }
+                Factorization::StructuredQr => {
+                    apply_q(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s])
+                }
+            }
             x[t * n..(t + 1) * n].copy_from_slice(&v[n..s]);
         }
         x[..n].copy_from_slice(&v[..n]);
@@ -478,6 +619,80 @@ fn householder_qr(
         }
     }
     Ok(())
+}
+
+/// Gaussian elimination with partial pivoting of the first `p` columns of the column-major
+/// `rows x cols` matrix `a` (leading dimension `rows`), the pivot of column `j` chosen among
+/// rows `j .. rows`, applied to all `cols` columns. On return the upper triangle of the
+/// first `p` columns and the first `p` rows of the others are `U`; below the diagonal of
+/// column `j` are its multipliers, in the row order at step `j` (`piv[j]` is the row
+/// swapped with row `j` at step `j`; earlier columns' multipliers are not swapped, so
+/// [`apply_lu`] interleaves the interchanges with the eliminations). Fails if a pivot is
+/// zero, subnormal or not finite.
+#[inline(always)]
+fn lu_panel(
+    a: &mut [f64],
+    rows: usize,
+    p: usize,
+    cols: usize,
+    piv: &mut [usize],
+) -> Result<(), AbdError> {
+    for j in 0..p {
+        let col = &a[j * rows..(j + 1) * rows];
+        let mut best = j;
+        let mut best_val = col[j].abs();
+        for (r, v) in col.iter().enumerate().skip(j + 1) {
+            if v.abs() > best_val {
+                best = r;
+                best_val = v.abs();
+            }
+        }
+        if best_val < f64::MIN_POSITIVE || !best_val.is_finite() {
+            return Err(AbdError::Singular);
+        }
+        piv[j] = best;
+        if best != j {
+            for c in j..cols {
+                a.swap(c * rows + j, c * rows + best);
+            }
+        }
+        let (left, right) = a.split_at_mut((j + 1) * rows);
+        let col = &mut left[j * rows + j..];
+        let inv = 1.0 / col[0];
+        for v in &mut col[1..] {
+            *v *= inv;
+        }
+        let l = &col[1..];
+        for c in j + 1..cols {
+            let other = &mut right[(c - j - 1) * rows + j..(c - j) * rows];
+            let u = other[0];
+            if u != 0.0 {
+                axpy(&mut other[1..], -u, l);
+            }
+        }
+    }
+    Ok(())
+}
+
+/// `v = L^{-1} P v` with the eliminations of the first `p` columns of `a` ([`lu_panel`]).
+#[inline(always)]
+fn apply_lu(a: &[f64], rows: usize, p: usize, piv: &[usize], v: &mut [f64]) {
+    for j in 0..p {
+        v.swap(j, piv[j]);
+        let vj = v[j];
+        if vj != 0.0 {
+            axpy(&mut v[j + 1..], -vj, &a[j * rows + j + 1..(j + 1) * rows]);
+        }
+    }
+}
+
+/// `v = (L^{-1} P)^T v`: the transposed eliminations in reverse order.
+#[inline(always)]
+fn apply_lu_transpose(a: &[f64], rows: usize, p: usize, piv: &[usize], v: &mut [f64]) {
+    for j in (0..p).rev() {
+        v[j] -= dot(&a[j * rows + j + 1..(j + 1) * rows], &v[j + 1..]);
+        v.swap(j, piv[j]);
+    }
 }
 
 /// Turn `x` into `beta e_1` by a reflection `I - tau u u^T` with `u = (1, v)`: on return
@@ -629,31 +844,144 @@ mod tests {
             (4, 1, 30),
             (12, 1, 40),
         ] {
-            let (values, dense) = random_system(n, k, nn, (n * 100 + k * 10 + nn) as u64);
-            let order = dense.nrows();
+            for lu in [true, false] {
+                let (values, dense) = random_system(n, k, nn, (n * 100 + k * 10 + nn) as u64);
+                let order = dense.nrows();
+                let mut abd = BorderedAbd::new(n, k, nn);
+                abd.set_try_lu(lu);
+                abd.factor(&values)
+                    .expect("random matrices are nonsingular");
+                let growth = abd.growth();
+                if lu {
+                    assert_eq!(abd.method(), Factorization::StructuredLu);
+                    assert!(growth > 0.1 && growth <= LU_GROWTH_LIMIT, "growth {growth}");
+                } else {
+                    assert_eq!(abd.method(), Factorization::StructuredQr);
+                    assert!(growth > 0.1 && growth <= 1.0 + 1e-12, "growth {growth}");
+                }
+                let pivot = abd.min_pivot();
+                assert!(pivot > 0.0 && pivot.is_finite(), "min pivot {pivot}");
+                if !lu {
+                    assert!(pivot <= 1.0 + 1e-12, "min pivot {pivot}");
+                }
+                let mut rnd = stream(7);
+                let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
+                let lu = dense.clone().lu();
+                let expected = lu.solve(&DVector::from_vec(b.clone())).unwrap();
+                let mut x = b.clone();
+                assert!(abd.solve_in_place(&mut x));
+                let err = max_rel(&x, expected.as_slice());
+                assert!(err < 1e-10, "({n},{k},{nn}) solve error {err:e}");
+                // (D J)^T x = b.
+                let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
+                let scaled_t = (&d * &dense).transpose();
+                let expected = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
+                let mut x = b.clone();
+                assert!(abd.solve_scaled_transpose_in_place(&mut x));
+                let err = max_rel(&x, expected.as_slice());
+                assert!(err < 1e-10, "({n},{k},{nn}) transposed solve error {err:e}");
+            }
+        }
+    }
+
+    /// `J x` for the block layout of `BorderedAbd::factor` (`x` by columns).
+    fn multiply(values: &[f64], n: usize, k: usize, nn: usize, x: &[f64]) -> Vec<f64> {
+        let wc = 2 * n + k;
+        let po = (nn + 1) * n;
+        values
+            .chunks_exact(wc)
+            .enumerate()
+            .map(|(r, row)| {
+                let (first, second) = row_nodes(r, n, nn);
+                (0..n)
+                    .map(|c| row[c] * x[first + c] + row[n + c] * x[second + c])
+                    .chain((0..k).map(|c| row[2 * n + c] * x[po + c]))
+                    .sum()
+            })
+            .collect()
+    }
+
+    /// Random systems with a known solution: elimination and the orthogonal reduction both
+    /// recover it, and agree with each other to rounding.
+    #[test]
+    fn elimination_and_qr_recover_a_known_solution() {
+        for (n, k, nn) in [(1, 0, 3), (2, 1, 5), (3, 0, 17), (12, 1, 60), (5, 2, 9)] {
+            let (values, _) = random_system(n, k, nn, (7 * n + 3 * k + nn) as u64);
+            let order = (nn + 1) * n + k;
+            let mut rnd = stream(99);
+            let x: Vec<f64> = (0..order).map(|_| rnd()).collect();
+            let b = multiply(&values, n, k, nn, &x);
+            let mut solutions = vec![];
+            for lu in [true, false] {
+                let mut abd = BorderedAbd::new(n, k, nn);
+                abd.set_try_lu(lu);
+                abd.factor(&values).unwrap();
+                let expected = if lu {
+                    Factorization::StructuredLu
+                } else {
+                    Factorization::StructuredQr
+                };
+                assert_eq!(abd.method(), expected);
+                let mut y = b.clone();
+                assert!(abd.solve_in_place(&mut y));
+                let err = max_rel(&y, &x);
+                assert!(err < 1e-10, "({n},{k},{nn}) lu {lu}: error {err:e}");
+                solutions.push(y);
+            }
+            let diff = max_rel(&solutions[0], &solutions[1]);
+            assert!(diff < 1e-10, "({n},{k},{nn}) LU vs QR {diff:e}");
+        }
+    }
+
+    /// Wright's (1993) kind of example: `y_{t+1} = T y_t` with `T = [[0.5, 0.9], [0.9,
+    /// 0.5]]` (modes growing by 1.4 and decaying by -0.4 per interval), the decaying mode set
+    /// at the start and the growing one at the end: a well-conditioned matrix on which
+    /// elimination restricted to the block order pivots on the carried rows (their entries
+    /// are 1, those of `T` below 1) and the border column `y_0` grows like 1.4^t. On 10
+    /// intervals the growth (about 1.4^10) stays below the limit and elimination is kept; on
+    /// 60 (about 1e9) the factorisation falls back to QR, and both solve accurately.
+    #[test]
+    fn growth_switches_to_qr() {
+        let (n, k) = (2, 0);
+        let wc = 2 * n + k;
+        let t = [[0.5, 0.9], [0.9, 0.5]];
+        for (nn, method) in [
+            (10, Factorization::StructuredLu),
+            (60, Factorization::StructuredQr),
+        ] {
+            let mut values = vec![0.0; (nn * n + n + k) * wc];
+            for i in 0..nn {
+                for r in 0..n {
+                    let row = &mut values[(i * n + r) * wc..(i * n + r + 1) * wc];
+                    for c in 0..n {
+                        row[c] = -t[r][c];
+                    }
+                    row[n + r] = 1.0;
+                }
+            }
+            let bc = &mut values[nn * n * wc..];
+            bc[..wc].copy_from_slice(&[1.0, -1.0, 0.0, 0.0]); // decaying mode at a
+            bc[wc..2 * wc].copy_from_slice(&[0.0, 0.0, 1.0, 1.0]); // growing mode at b
+            let order = (nn + 1) * n + k;
+            let x: Vec<f64> = (0..order).map(|i| (0.3 * i as f64).cos()).collect();
+            let b = multiply(&values, n, k, nn, &x);
             let mut abd = BorderedAbd::new(n, k, nn);
-            abd.factor(&values)
-                .expect("random matrices are nonsingular");
+            abd.factor(&values).unwrap();
+            assert_eq!(abd.method(), method, "N = {nn}");
             let growth = abd.growth();
-            assert!(growth > 0.1 && growth <= 1.0 + 1e-12, "growth {growth}");
-            let pivot = abd.min_pivot();
-            assert!(pivot > 0.0 && pivot <= 1.0 + 1e-12, "min pivot {pivot}");
-            let mut rnd = stream(7);
-            let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
-            let lu = dense.clone().lu();
-            let expected = lu.solve(&DVector::from_vec(b.clone())).unwrap();
-            let mut x = b.clone();
-            assert!(abd.solve_in_place(&mut x));
-            let err = max_rel(&x, expected.as_slice());
-            assert!(err < 1e-10, "({n},{k},{nn}) solve error {err:e}");
-            // (D J)^T x = b.
-            let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
-            let scaled_t = (&d * &dense).transpose();
-            let expected = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
-            let mut x = b.clone();
-            assert!(abd.solve_scaled_transpose_in_place(&mut x));
-            let err = max_rel(&x, expected.as_slice());
-            assert!(err < 1e-10, "({n},{k},{nn}) transposed solve error {err:e}");
+            match method {
+                Factorization::StructuredLu => assert!(growth > 10.0, "growth {growth}"),
+                Factorization::StructuredQr => assert!(growth <= 1.0 + 1e-12, "growth {growth}"),
+            }
+            let mut y = b.clone();
+            assert!(abd.solve_in_place(&mut y));
+            let err = max_rel(&y, &x);
+            assert!(err < 1e-12, "N = {nn}: error {err:e}");
+            // Forced elimination on 60 intervals: the growth is what the fallback avoids.
+            if nn == 60 {
+                abd.sweep_sized(&values, Factorization::StructuredLu)
+                    .expect_err("elimination stops once its growth passes the limit");
+            }
         }
     }
 

@@ -56,6 +56,7 @@ pub(crate) use avx2;
 /// matrix is singular to working precision or contains NaN).
 #[inline(always)]
 pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
+    let a = &mut a[..n * n];
     let scale = a.iter().fold(0.0_f64, |s, v| s.max(v.abs()));
     if !scale.is_finite() {
         return false;
@@ -75,19 +76,20 @@ pub(crate) fn lu_factor(a: &mut [f64], n: usize, piv: &mut [usize]) -> bool {
         if best_val <= tiny || !best_val.is_finite() {
             return false;
         }
+        let (top, bottom) = a.split_at_mut((col + 1) * n);
+        let prow = &mut top[col * n..];
         if best != col {
-            for c in 0..n {
-                a.swap(col * n + c, best * n + c);
-            }
+            prow.swap_with_slice(&mut bottom[(best - col - 1) * n..(best - col) * n]);
         }
-        let inv = 1.0 / a[col * n + col];
-        for r in col + 1..n {
-            let l = a[r * n + col] * inv;
-            a[r * n + col] = l;
+        let prow = &prow[col..];
+        let inv = 1.0 / prow[0];
+        // Row updates as contiguous axpys (`y + (-l) x` is bitwise `y - l x`).
+        for row in bottom.chunks_exact_mut(n) {
+            let row = &mut row[col..];
+            let l = row[0] * inv;
+            row[0] = l;
             if l != 0.0 {
-                for c in col + 1..n {
-                    a[r * n + c] -= l * a[col * n + c];
-                }
+                axpy(&mut row[1..], -l, &prow[1..]);
             }
         }
     }
@@ -187,12 +189,26 @@ pub(crate) fn axpy(y: &mut [f64], alpha: f64, x: &[f64]) {
 /// with contiguous rows of `U` and `L`.
 #[inline(always)]
 pub(crate) fn lu_right_solve(a: &[f64], n: usize, piv: &[usize], x: &mut [f64], nrows: usize) {
-    let x = &mut x[..nrows * n];
+    lu_right_solve_strided(a, n, piv, x, nrows, n);
+}
+
+/// [`lu_right_solve`] for rows `x[r * ld .. r * ld + n]` (`ld >= n`).
+#[inline(always)]
+pub(crate) fn lu_right_solve_strided(
+    a: &[f64],
+    n: usize,
+    piv: &[usize],
+    x: &mut [f64],
+    nrows: usize,
+    ld: usize,
+) {
+    let x = &mut x[..(nrows - 1) * ld + n];
     // Column by column over all rows: one division per pivot, contiguous row updates.
     for i in 0..n {
         let urow = &a[i * n..(i + 1) * n];
         let inv = 1.0 / urow[i];
-        for row in x.chunks_exact_mut(n) {
+        for r in 0..nrows {
+            let row = &mut x[r * ld..r * ld + n];
             row[i] *= inv;
             let yi = row[i];
             axpy(&mut row[i + 1..], -yi, &urow[i + 1..]);
@@ -200,14 +216,53 @@ pub(crate) fn lu_right_solve(a: &[f64], n: usize, piv: &[usize], x: &mut [f64], 
     }
     for j in (1..n).rev() {
         let lrow = &a[j * n..j * n + j];
-        for row in x.chunks_exact_mut(n) {
+        for r in 0..nrows {
+            let row = &mut x[r * ld..r * ld + n];
             let zj = row[j];
             axpy(&mut row[..j], -zj, lrow);
         }
     }
-    for row in x.chunks_exact_mut(n) {
+    for r in 0..nrows {
+        let row = &mut x[r * ld..r * ld + n];
         for (i, &p) in piv.iter().enumerate().take(n).rev() {
             row.swap(i, p);
+        }
+    }
+}
+
+/// `B := A^{-1} B` in place with the factors from [`lu_factor`]; `b` is row-major
+/// `n x ncols` (the substitutions as contiguous row axpys).
+#[inline(always)]
+pub(crate) fn lu_solve_rows(a: &[f64], n: usize, piv: &[usize], b: &mut [f64], ncols: usize) {
+    let b = &mut b[..n * ncols];
+    for (i, &p) in piv.iter().enumerate().take(n) {
+        if p != i {
+            let (top, bottom) = b.split_at_mut(p * ncols);
+            top[i * ncols..(i + 1) * ncols].swap_with_slice(&mut bottom[..ncols]);
+        }
+    }
+    for i in 1..n {
+        let (done, rest) = b.split_at_mut(i * ncols);
+        let row = &mut rest[..ncols];
+        for j in 0..i {
+            let l = a[i * n + j];
+            if l != 0.0 {
+                axpy(row, -l, &done[j * ncols..(j + 1) * ncols]);
+            }
+        }
+    }
+    for i in (0..n).rev() {
+        let (head, done) = b.split_at_mut((i + 1) * ncols);
+        let row = &mut head[i * ncols..];
+        for j in i + 1..n {
+            let u = a[i * n + j];
+            if u != 0.0 {
+                axpy(row, -u, &done[(j - i - 1) * ncols..(j - i) * ncols]);
+            }
+        }
+        let inv = 1.0 / a[i * n + i];
+        for v in row.iter_mut() {
+            *v *= inv;
         }
     }
 }

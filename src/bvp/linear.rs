@@ -15,12 +15,13 @@
 //!          +-----+-----+-----+-----+----+
 //! ```
 //!
-//! The matrix is factored by structured QR ([`abd`](super::abd)): `O(N n^2 (n + k))` work,
+//! The matrix is factored by structured elimination, or structured QR where elimination
+//! grows ([`abd`](super::abd)): `O(N n^2 (n + k))` work,
 //! storage linear in the number of intervals, no symbolic analysis, no allocation in the
 //! Newton loop. The values live in [`global_jacobian_pattern`] order, which is the blocks'
 //! row-major order, so the condensation writes them where the factorisation reads them.
 
-use super::abd::{row_nodes, AbdError, BorderedAbd};
+use super::abd::{row_nodes, AbdError, BorderedAbd, Factorization};
 
 /// Row/column index pairs of the structurally nonzero entries of the global Jacobian, in
 /// assembly order: for each interval `i`, the rows `i*n .. i*n+n` of `[A_i B_i P_i]`
@@ -100,6 +101,11 @@ impl GlobalSystem {
     /// Growth of the last factorisation (see `BorderedAbd::growth`).
     pub fn growth(&self) -> f64 {
         self.abd.growth()
+    }
+
+    /// The reduction of the last factorisation.
+    pub fn method(&self) -> Factorization {
+        self.abd.method()
     }
 
     /// Smallest relative pivot of the last factorisation (see `BorderedAbd::min_pivot`).

@@ -113,10 +113,11 @@
 //!          +-----+-----+-----+-----+----+
 //! ```
 //!
-//! It is factored by structured QR, one interval at a time, after row equilibration
-//! ([`abd`]): work and memory are linear in the number of intervals, nothing is allocated in
-//! the Newton loop, and the orthogonal reduction cannot amplify rounding errors (its growth is
-//! reported in [`Stats::factor_growth`]).
+//! It is factored one interval at a time after row equilibration ([`abd`]), by structured
+//! elimination (partial pivoting inside each block) with structured QR as the fallback when
+//! the elimination's growth or a tiny pivot says it may be inaccurate: work and memory are
+//! linear in the number of intervals, nothing is allocated in the Newton loop, and the growth
+//! is reported in [`Stats::factor_growth`] ([`Stats::factorization`] says which reduction).
 //! Newton is damped and affine invariant (Deuflhard's natural monotonicity test on the
 //! simplified correction) and reuses Jacobians while the contraction is fast ([`newton`]).
 //!
@@ -163,6 +164,7 @@ mod solution;
 #[cfg(test)]
 mod tests;
 
+pub use abd::Factorization;
 pub use error::BvpError;
 pub use linear::global_jacobian_pattern;
 pub use options::{ErrorControl, JacobianSource, Options};
@@ -297,6 +299,7 @@ fn estimate_conditioning(
     stats.condition_estimate = sys.condition_estimate();
     stats.factor_growth = sys.growth();
     stats.factor_min_pivot = sys.min_pivot();
+    stats.factorization = sys.method();
     stats.bc_condition * options.tol <= options.conditioning_limit
         && stats.condition_estimate * f64::EPSILON <= NUMERICALLY_SINGULAR
 }

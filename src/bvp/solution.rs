@@ -2,6 +2,7 @@
 //! [`Status`]), what it accepts as a starting point ([`Guess`]) and what it reports while
 //! running ([`Progress`]).
 
+use super::abd::Factorization;
 use super::collocation::{eval_collocation_polynomial, Tableau};
 
 /// How a solve ended. Only [`Status::Converged`] is a success; use
@@ -127,13 +128,20 @@ pub struct Stats {
     /// Estimate of the 1-norm condition number of the condensed global Newton matrix on the
     /// last mesh (Hager-Higham). Above `1e-3 / eps` the matrix counts as numerically singular.
     pub condition_estimate: f64,
-    /// Growth of the structured QR factorisation of that matrix: the largest entry of `R`
-    /// relative to the 2-norm of its column of the row-equilibrated matrix. At most 1 up to
-    /// rounding for an orthogonal reduction; reported as evidence of a stable solve.
+    /// Growth of the structured factorisation of that matrix: the largest entry of its
+    /// triangular factor (and, for elimination, of every intermediate carried row) relative to
+    /// the 2-norm of its column of the row-equilibrated matrix. For the structured QR at most
+    /// 1 up to rounding; for structured LU (the default) the elimination's growth factor, at
+    /// most `1e3` (beyond that the factorisation is redone by QR); reported as evidence of a
+    /// stable solve. Which of the two: [`factorization`](Self::factorization).
     pub factor_growth: f64,
     /// Smallest pivot of that factorisation relative to its column of the row-equilibrated
-    /// matrix (in (0, 1]; small when the matrix is near singular).
+    /// matrix (small when the matrix is near singular; in (0, 1] for QR, at least `1e-10` for
+    /// LU, whose tinier pivots switch to QR).
     pub factor_min_pivot: f64,
+    /// The reduction of that factorisation: structured LU, or structured QR when elimination
+    /// grew too much or met a tiny pivot.
+    pub factorization: Factorization,
 }
 
 /// One report to the progress hook.

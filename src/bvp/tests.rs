@@ -296,6 +296,79 @@ fn condensed_jacobian_and_correction_match_finite_differences() {
     }
 }
 
+/// The stage blocks factored by blocks (`K_11`, then its Schur complement) and whole give
+/// the same condensed matrix and Newton correction to rounding.
+#[test]
+fn stage_blocks_by_blocks_and_whole_agree() {
+    let ev = Evaluator::new(&Mixed, JacobianSource::Analytic);
+    let (x, u) = sample_state();
+    let mut results = vec![];
+    for (limit, by_blocks) in [(f64::INFINITY, true), (-1.0, false)] {
+        let mut col = Collocation::new(2, 1, &x);
+        col.set_kblock_growth_limit(limit);
+        let res = residual(&ev, &mut col, &u);
+        col.evaluate_jacobian(&ev, &u, &res)
+            .expect("nonsingular stage blocks");
+        assert!(col.stage_blocks_by_blocks().iter().all(|&b| b == by_blocks));
+        let mut sys = GlobalSystem::new(2, 1, x.len());
+        col.assemble_global(&mut sys.values);
+        let values = sys.values.clone();
+        sys.factor().expect("nonsingular");
+        let mut dx = vec![0.0; col.lay.total()];
+        assert!(compute_correction(&mut col, &mut sys, &res, &mut dx));
+        results.push((values, dx));
+    }
+    let close = |a: &[f64], b: &[f64]| {
+        let scale = b.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+        a.iter().zip(b).all(|(x, y)| (x - y).abs() <= 1e-13 * scale)
+    };
+    assert!(close(&results[0].0, &results[1].0), "condensed matrices");
+    assert!(close(&results[0].1, &results[1].1), "corrections");
+}
+
+/// y' = lambda y, y(0) = 1.
+struct Growth(f64);
+impl BvpProblem for Growth {
+    fn n(&self) -> usize {
+        1
+    }
+    fn f(&self, _x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        dy[0] = self.0 * y[0];
+    }
+    fn bc(&self, ya: &[f64], _yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0] - 1.0;
+    }
+}
+
+/// With `h lambda a22 = 1` the block `K_11 = 1 - h a22 lambda` vanishes while `K` does not:
+/// that interval is factored whole (the other, shorter one by blocks), and the correction
+/// still solves the linear problem in one step (the discrete equations are linear).
+#[test]
+fn singular_first_stage_block_is_factored_whole() {
+    let tab = Tableau::lobatto_iiia4();
+    let lambda = 3.0;
+    let h = 1.0 / (lambda * tab.a[1][1]);
+    let x = vec![0.0, h, 1.3 * h];
+    let problem = Growth(lambda);
+    let ev = Evaluator::new(&problem, JacobianSource::Analytic);
+    let mut col = Collocation::new(1, 0, &x);
+    let u = vec![0.5; col.lay.total()];
+    let mut res = vec![0.0; u.len()];
+    assert!(col.evaluate_residual(&ev, &u, &mut res));
+    col.evaluate_jacobian(&ev, &u, &res)
+        .expect("K is nonsingular");
+    assert_eq!(col.stage_blocks_by_blocks(), &[false, true]);
+    let mut sys = GlobalSystem::new(1, 0, x.len());
+    col.assemble_global(&mut sys.values);
+    sys.factor().expect("nonsingular");
+    let mut dx = vec![0.0; u.len()];
+    assert!(compute_correction(&mut col, &mut sys, &res, &mut dx));
+    let next: Vec<f64> = u.iter().zip(&dx).map(|(a, d)| a + d).collect();
+    assert!(col.evaluate_residual(&ev, &next, &mut res));
+    let worst = res.iter().fold(0.0_f64, |m, v| m.max(v.abs()));
+    assert!(worst < 1e-12, "residual after one step {worst:e}");
+}
+
 #[test]
 fn adapt_mesh_refines_and_merges() {
     let x: Vec<f64> = (0..=8).map(|i| i as f64 / 8.0).collect();
