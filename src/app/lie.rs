@@ -302,14 +302,16 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
         serde_json::json!(finite(d.max_relative_residual)),
     );
     // The Newton matrix of the final mesh: the solution's sensitivity to its boundary data,
-    // the matrix's condition estimate, the growth of its structured QR (at most 1) and its
-    // smallest pivot relative to its column.
+    // the matrix's condition estimate, which structured factorisation solved it (LU, or QR
+    // where the LU's growth or a pivot was unsafe), its growth (at most 1e3 for the LU, 1 for
+    // the QR) and its smallest pivot relative to its column.
     let stats = &sol.bvp.stats;
     c.extra.insert(
         "newton_matrix".into(),
         serde_json::json!({
             "bc_condition": finite(stats.bc_condition),
             "condition_estimate": finite(stats.condition_estimate),
+            "factorization": stats.factorization.name(),
             "factor_growth": finite(stats.factor_growth),
             "factor_min_pivot": finite(stats.factor_min_pivot),
         }),
