@@ -371,8 +371,8 @@ fn main() {
             r,
             "\nIndependent check of the converged trajectories: largest |<Ω, ξ>|/(|Ω||ξ|) \
              {:.1e}, energy drift {:.1e}, Suslov residual / scale {:.1e}; {unresolved} \
-             converged problem(s) with more than 10 % of the rows too coarse on the 2001-point \
-             grid for the Suslov-equation test.\n",
+             converged problem(s) with more than 10 % of the rows too coarse on the written grid \
+             (2001 uniform times and the mesh nodes) for the Suslov-equation test.\n",
             worst.0, worst.1, worst.2
         );
     }

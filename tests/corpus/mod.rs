@@ -626,7 +626,7 @@ fn fd_weights(x0: f64, x: &[f64]) -> Vec<f64> {
 ///    `E = |D2 − D4|` estimates that error; `D4`'s own error is `h⁴/30 Ω⁽⁵⁾`, smaller than
 ///    `E` by a factor ~`(ωh)²/5` where `ω` is the motion's frequency, i.e. `E` bounds it
 ///    wherever the grid resolves the motion (`ωh < 1`). The converged solution itself
-///    satisfies the equation to ~ the solver's tolerance (1e-8), far below `E` on a 2001-point
+///    satisfies the equation to ~ the solver's tolerance (1e-8), far below `E` on the written
 ///    grid, so the test is `r ≤ REL_TOL · S + 2 ‖𝕀‖ max(E over the row and its neighbours)`
 ///    (factor 2 and the neighbours: margin for the rows where Ω‴ changes sign and `E`
 ///    under-estimates). Where that bound exceeds 1 % of `S` the grid does not resolve the
