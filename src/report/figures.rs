@@ -846,6 +846,13 @@ fn draw_time_series<DB: DrawingBackend>(
             pts.extend(std::iter::repeat_n(to_unit(p), 200));
             pts.extend(std::iter::repeat_n(to_unit(q), 200));
         }
+        // Nor the dashed reference line (e.g. |ξ| = 1): it is sampled like a curve.
+        if let Some((v, _)) = reference {
+            pts.extend((0..=200).map(|k| {
+                let t = t0 + (t1 - t0) * f64::from(k) / 200.0;
+                to_unit((t, v / unit))
+            }));
+        }
         pts
     };
     let mut corner = SeriesLabelPosition::UpperRight;
