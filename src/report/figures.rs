@@ -1084,7 +1084,7 @@ const VIEW_PITCHES: [f64; 4] = [0.15, 0.3, 0.45, 0.6];
 
 /// Yaws tried by [`choose_view_3d`] in each quadrant, in degrees from a coordinate axis:
 /// nearer to an axis, the box is seen face on and two of its axes fall on one line.
-const VIEW_YAWS: [f64; 6] = [20.0, 30.0, 40.0, 50.0, 60.0, 70.0];
+const VIEW_YAWS: &[f64] = &[20.0, 30.0, 40.0, 50.0, 60.0, 70.0];
 
 /// The view `(yaw, pitch)` of the 3-D figure chosen from the data: among the yaws 20°, 30°,
 /// …, 70° away from each coordinate axis and the pitches 0.15, 0.3, 0.45 and 0.6, the one whose screen shows the marked points
@@ -1166,7 +1166,7 @@ pub fn choose_view_3d(markers: &[[f64; 3]], curves: &[&[[f64; 3]]]) -> (f64, f64
     };
     let mut best = (DEFAULT_VIEW_3D, score(DEFAULT_VIEW_3D));
     for quadrant in -2..2 {
-        for degrees in VIEW_YAWS {
+        for &degrees in VIEW_YAWS {
             let yaw = f64::from(quadrant) * FRAC_PI_2 + degrees.to_radians();
             for pitch in VIEW_PITCHES {
                 let s = score((yaw, pitch));
@@ -1295,8 +1295,8 @@ fn draw_axis_names<DB: DrawingBackend>(
     font: f64,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let coord = chart.as_coord_spec();
-    let depth = |p: [f64; 3]| coord.projected_depth(&p[0], &p[1], &p[2]);
-    let px = |p: [f64; 3]| coord.translate(&(p[0], p[1], p[2]));
+    let depth = |v: [f64; 3]| coord.projected_depth(&v[0], &v[1], &v[2]);
+    let px = |v: [f64; 3]| coord.translate(&(v[0], v[1], v[2]));
     let (lo, hi) = ([-r; 3], [r; 3]);
     // The panel of each axis: at its low or high end, whichever is farther from the viewer.
     let fixed: [f64; 3] = std::array::from_fn(|i| {
