@@ -248,11 +248,9 @@ fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
         [Outputs::Final, Outputs::Unverified, Outputs::Partial]
             .map(|k| format!("{}.csv", collocation_stem(k))),
     );
-    names.extend(
-        report::Figure::ALL
-            .iter()
-            .map(|f| format!("{}.{}", f.stem(), FigureFormat::Png.extension())),
-    );
+    names.extend(report::Figure::ALL.iter().flat_map(|f| {
+        FigureFormat::ALL.map(|format| format!("{}.{}", f.stem(), format.extension()))
+    }));
     names.into_iter().map(|n| sub.join(n)).collect()
 }
 
@@ -318,7 +316,21 @@ fn write_case_outputs(
     let om_a = sol.problem.omega_a;
     let ellipsoid = report::EnergyEllipsoid::through(inertia.into(), om_a.into())?;
     let mut opts = FigureOptions::new(title, ellipsoid);
-    opts.format = FigureFormat::Png;
+    // The titles carry the weights and b, as the paper's captions do; with γ = 0, Ω_d is
+    // not in the cost and is not drawn as "desired".
+    let w = &sol.problem.weights;
+    opts.subtitle = Some(report::case_subtitle(
+        title,
+        &[
+            ("α", w.alpha),
+            ("β", w.beta),
+            ("γ", w.gamma),
+            ("η", w.eta),
+            ("δ", w.delta),
+        ],
+        sol.terminal_time(),
+    ));
+    opts.desired_in_cost = w.gamma > 0.0;
     // When the optimal b is shorter than the start's b_p (the paper's η = 0.01 case: b = 9.84
     // < b_d = 10), draw Ω_d up to b_p with a marker at Ω_d(b), as the paper's figure does.
     let (a, b, b_p) = (sol.problem.t0, sol.terminal_time(), sol.generic.start.b_p);
@@ -333,13 +345,26 @@ fn write_case_outputs(
                 .collect(),
         );
     }
-    // The figures are independent: render them side by side, then write them in their
-    // usual order (the bytes do not depend on which thread drew them).
+    // The figures are independent: render every figure in every format ([`FigureFormat::ALL`]:
+    // PNG and SVG) side by side, then write them in their usual order (the bytes do not
+    // depend on which thread drew them).
+    let jobs: Vec<(report::Figure, FigureOptions)> = report::Figure::ALL
+        .iter()
+        .flat_map(|&fig| {
+            FigureFormat::ALL.map(|format| {
+                let opts = FigureOptions {
+                    format,
+                    ..opts.clone()
+                };
+                (fig, opts)
+            })
+        })
+        .collect();
     let rendered: Vec<Result<Vec<u8>, ReportError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = report::Figure::ALL
+        let handles: Vec<_> = jobs
             .iter()
-            .map(|&fig| {
-                let (table, opts) = (&table, &opts);
+            .map(|(fig, opts)| {
+                let (fig, table) = (*fig, &table);
                 (
                     fig,
                     scope.spawn(move || report::render_figure_bytes(fig, table, opts)),
@@ -358,7 +383,7 @@ fn write_case_outputs(
             })
             .collect()
     });
-    for (fig, bytes) in report::Figure::ALL.iter().zip(rendered) {
+    for ((fig, opts), bytes) in jobs.iter().zip(rendered) {
         let path = out.write(
             sub.join(format!("{}.{}", fig.stem(), opts.format.extension())),
             &bytes?,

@@ -387,14 +387,16 @@ fn png_figures_exist_and_are_valid() {
             "constraint.png",
             "xi_norm.png",
             "kappa.png",
-            "omega.png"
+            "omega.png",
+            "xi.png",
+            "xi_dot.png"
         ]
     );
     for p in &paths {
         check_png(p, (1200, 900));
     }
     no_temp_files(&d);
-    assert_eq!(fs::read_dir(&d).unwrap().count(), 5);
+    assert_eq!(fs::read_dir(&d).unwrap().count(), 7);
 }
 
 #[test]
@@ -416,7 +418,7 @@ fn svg_figures_exist_and_are_valid() {
     let d = scratch("figures_svg");
     let tab = synthetic(401, 11.36);
     let paths = write_case_figures(&d, &tab, &options("eta = 1", FigureFormat::Svg)).unwrap();
-    assert_eq!(paths.len(), 5);
+    assert_eq!(paths.len(), 7);
     for p in &paths {
         assert_eq!(p.extension().unwrap(), "svg");
         let s = fs::read_to_string(p).unwrap();
@@ -464,7 +466,7 @@ fn case_outputs_write_csv_and_figures_into_a_new_directory() {
     let dir = d.join("runs/eta1");
     let tab = synthetic(501, 11.36);
     let paths = write_case_outputs(&dir, &tab, &options("eta = 1", FigureFormat::Svg)).unwrap();
-    assert_eq!(paths.len(), 6);
+    assert_eq!(paths.len(), 8);
     assert_eq!(paths[0], dir.join("trajectory.csv"));
     let back = parse_trajectory_csv(&fs::read_to_string(&paths[0]).unwrap()).unwrap();
     assert_eq!(back, tab);

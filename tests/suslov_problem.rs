@@ -135,9 +135,20 @@ fn the_paper_job_writes_complete_outputs() {
         assert_eq!(&npy[..6], b"\x93NUMPY");
         let hlen = u16::from_le_bytes([npy[8], npy[9]]) as usize;
         assert_eq!(npy.len(), 10 + hlen + rows * 16 * 8);
-        for fig in ["omega_3d", "constraint", "xi_norm", "kappa", "omega"] {
+        for fig in [
+            "omega_3d",
+            "constraint",
+            "xi_norm",
+            "kappa",
+            "omega",
+            "xi",
+            "xi_dot",
+        ] {
             let png = std::fs::read(dir.join(&case.name).join(format!("{fig}.png"))).expect(fig);
             assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
+            let svg = std::fs::read_to_string(dir.join(&case.name).join(format!("{fig}.svg")))
+                .expect(fig);
+            assert!(svg.trim_end().ends_with("</svg>"), "{fig}.svg");
         }
     }
     assert!(wrote.iter().all(|p| p.exists()));

@@ -5,13 +5,18 @@
 //! needs fontconfig, freetype or any installed font: PNG output works on a bare machine.
 //! PNG is the default format ([`FigureFormat::Png`]); SVG ([`FigureFormat::Svg`]) is
 //! available for vector output (its text is SVG `<text>` in the viewer's sans-serif font).
+//! Both are drawn by the same code, so a PNG and an SVG of one figure show the same thing.
 //!
 //! Every file is rendered in memory and then written with [`write_atomic`].
 
-use super::{norm, write_atomic, EnergyEllipsoid, ReportError, TrajectoryTable};
-use plotters::coord::Shift;
+use super::{norm, significant, write_atomic, EnergyEllipsoid, ReportError, TrajectoryTable};
+use plotters::coord::ranged3d::ProjectionMatrixBuilder;
+use plotters::coord::types::RangedCoordf64;
+use plotters::coord::{CoordTranslate, Shift};
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 use plotters::style::{register_font, FontStyle};
+use std::f64::consts::FRAC_PI_2;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
@@ -30,14 +35,21 @@ const COMPONENT_COLORS: [RGBColor; 3] = [
 ];
 /// Ω in the 3-D view.
 const OMEGA_COLOR: RGBColor = RGBColor(31, 119, 180);
-/// Ω_d in the 3-D view.
-const DESIRED_COLOR: RGBColor = RGBColor(0, 0, 0);
+/// Ω_d in the 3-D view: a wide grey band drawn under Ω, so that Ω stays visible where it
+/// runs along Ω_d.
+const DESIRED_COLOR: RGBColor = RGBColor(170, 170, 170);
+/// The reference path in the 3-D view when it is not in the cost (γ = 0): thin and dashed.
+const REFERENCE_COLOR: RGBColor = RGBColor(90, 90, 90);
 /// ξ_∥ in the 3-D view.
 const XI_COLOR: RGBColor = RGBColor(255, 127, 14);
-/// Start marker.
+/// Start marker (of Ω in the 3-D view).
 const START_COLOR: RGBColor = RGBColor(0, 170, 0);
-/// End marker.
+/// End marker (of Ω in the 3-D view).
 const END_COLOR: RGBColor = RGBColor(220, 0, 0);
+/// Start marker of ξ_∥ in the 3-D view.
+const XI_START_COLOR: RGBColor = RGBColor(0, 180, 190);
+/// End marker of ξ_∥ in the 3-D view.
+const XI_END_COLOR: RGBColor = RGBColor(190, 0, 190);
 /// Marker of Ω_d(b) when Ω_d is drawn beyond the terminal time.
 const YELLOW_MARKER: RGBColor = RGBColor(240, 200, 0);
 
@@ -52,6 +64,9 @@ pub enum FigureFormat {
 }
 
 impl FigureFormat {
+    /// Both formats, PNG first: `suslov solve` and `paper` write every figure in each.
+    pub const ALL: [FigureFormat; 2] = [FigureFormat::Png, FigureFormat::Svg];
+
     /// File extension without the dot: `"png"` or `"svg"`.
     pub fn extension(self) -> &'static str {
         match self {
@@ -74,19 +89,25 @@ pub enum Figure {
     Kappa,
     /// `omega`: components of Ω and Ω_d against t.
     OmegaComponents,
+    /// `xi`: components ξ₁, ξ₂, ξ₃ of the constraint vector against t.
+    Xi,
+    /// `xi_dot`: components of the control ξ̇ = dξ/dt against t.
+    XiDot,
 }
 
 impl Figure {
     /// All figures, in the order [`write_case_figures`] writes them.
-    pub const ALL: [Figure; 5] = [
+    pub const ALL: [Figure; 7] = [
         Figure::Omega3d,
         Figure::Constraint,
         Figure::XiNorm,
         Figure::Kappa,
         Figure::OmegaComponents,
+        Figure::Xi,
+        Figure::XiDot,
     ];
 
-    /// File stem: `omega_3d`, `constraint`, `xi_norm`, `kappa` or `omega`.
+    /// File stem: `omega_3d`, `constraint`, `xi_norm`, `kappa`, `omega`, `xi` or `xi_dot`.
     pub fn stem(self) -> &'static str {
         match self {
             Figure::Omega3d => "omega_3d",
@@ -94,18 +115,31 @@ impl Figure {
             Figure::XiNorm => "xi_norm",
             Figure::Kappa => "kappa",
             Figure::OmegaComponents => "omega",
+            Figure::Xi => "xi",
+            Figure::XiDot => "xi_dot",
         }
     }
 }
 
-/// Default `(yaw, pitch)` of the 3-D figure.
+/// The `(yaw, pitch)` of the 3-D figure that [`choose_view_3d`] prefers among equally good
+/// views (and takes when there is nothing to see).
 pub const DEFAULT_VIEW_3D: (f64, f64) = (-0.5, 0.35);
 
 /// How to draw the figures of one case.
 #[derive(Debug, Clone, PartialEq)]
 pub struct FigureOptions {
-    /// Case name shown in every title, e.g. `"eta = 1"`.
+    /// Case name shown in every title, e.g. `"eta = 1"` (in parentheses after the figure's
+    /// own title when there is no [`subtitle`](Self::subtitle)).
     pub title: String,
+    /// A second title line under every figure's own title, as the paper's captions, e.g.
+    /// `"eta_1: α = 1, β = 0.1, γ = 1, η = 1, δ = 0.2, b = 11.3596"` ([`case_subtitle`]).
+    /// When given it replaces the case name in parentheses; `None` (the default) draws the
+    /// single title line `<figure title> (<title>)`.
+    pub subtitle: Option<String>,
+    /// Whether Ω_d is in the cost (its weight γ > 0). When `false` it is not drawn as the
+    /// "desired" path: the figures call it the reference path, not in the cost (in the 3-D
+    /// view: thin and dashed). Default `true`.
+    pub desired_in_cost: bool,
     /// The energy ellipsoid `E` (for ξ_∥ and the wireframe).
     pub ellipsoid: EnergyEllipsoid,
     /// PNG or SVG.
@@ -118,22 +152,39 @@ pub struct FigureOptions {
     /// figure 5.3a).
     pub desired_extended: Option<Vec<[f64; 3]>>,
     /// View of the 3-D figure: `(yaw, pitch)` in radians (plotters' projection angles; yaw
-    /// turns about the vertical Ω₃ axis, pitch tilts towards a view from above).
-    pub view_3d: (f64, f64),
+    /// turns about the vertical Ω₃ axis, pitch tilts towards a view from above), or `None`
+    /// (the default): chosen from the data by [`choose_view_3d`].
+    pub view_3d: Option<(f64, f64)>,
 }
 
 impl FigureOptions {
-    /// PNG, 1200 × 900 pixels, no extended Ω_d.
+    /// PNG, 1200 × 900 pixels, no subtitle, Ω_d in the cost, no extended Ω_d, the 3-D view
+    /// chosen from the data.
     pub fn new(title: impl Into<String>, ellipsoid: EnergyEllipsoid) -> Self {
         Self {
             title: title.into(),
+            subtitle: None,
+            desired_in_cost: true,
             ellipsoid,
             format: FigureFormat::Png,
             size: (1200, 900),
             desired_extended: None,
-            view_3d: DEFAULT_VIEW_3D,
+            view_3d: None,
         }
     }
+}
+
+/// The second title line of a case's figures ([`FigureOptions::subtitle`]), as the paper's
+/// captions: `"<case>: <symbol> = <value>, …, b = <terminal time>"`, every value with six
+/// significant digits ([`significant`]), e.g. `"eta_1: α = 1, β = 0.1, γ = 1, η = 1, δ = 0.2,
+/// b = 11.3596"`.
+pub fn case_subtitle(case: &str, weights: &[(&str, f64)], terminal_time: f64) -> String {
+    let mut parts: Vec<String> = weights
+        .iter()
+        .map(|(symbol, v)| format!("{symbol} = {}", significant(*v, 6)))
+        .collect();
+    parts.push(format!("b = {}", significant(terminal_time, 6)));
+    format!("{case}: {}", parts.join(", "))
 }
 
 /// Draws all figures of [`Figure::ALL`] into `dir` (created, with its parents, if missing),
@@ -302,6 +353,7 @@ fn encode_png(rgb: &[u8], w: u32, h: u32) -> Result<Vec<u8>, String> {
 /// Font sizes scaled with the figure height (reference: 900 px).
 struct Fonts {
     title: f64,
+    subtitle: f64,
     desc: f64,
     label: f64,
     legend: f64,
@@ -312,6 +364,7 @@ impl Fonts {
         let s = f64::from(h) / 900.0;
         Self {
             title: 34.0 * s,
+            subtitle: 26.0 * s,
             desc: 28.0 * s,
             label: 22.0 * s,
             legend: 24.0 * s,
@@ -327,6 +380,10 @@ fn draw<DB: DrawingBackend>(
 ) -> Result<(), String> {
     root.fill(&WHITE).map_err(|e| e.to_string())?;
     let segmented = opts.format == FigureFormat::Png;
+    // The three components of a column of 3-vectors, as curves against t.
+    let components = |rows: &[[f64; 3]]| -> [Vec<f64>; 3] {
+        [0, 1, 2].map(|k| rows.iter().map(|v| v[k]).collect())
+    };
     let result = match figure {
         Figure::Omega3d => draw_omega_3d(root, table, opts),
         Figure::Constraint => {
@@ -338,11 +395,10 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("⟨Ω, ξ⟩", COMPONENT_COLORS[0], &table.t, &c)];
             draw_time_series(
                 root,
+                opts,
                 TimePlot {
-                    caption: format!(
-                        "Constraint ⟨Ω, ξ⟩ ({}); max |⟨Ω, ξ⟩| = {max:.2e}",
-                        opts.title
-                    ),
+                    what: "Constraint ⟨Ω, ξ⟩",
+                    suffix: format!("; max |⟨Ω, ξ⟩| = {max:.2e}"),
                     y_desc: "⟨Ω, ξ⟩",
                     series: &series,
                     y_axis: YAxis::Symmetric,
@@ -358,8 +414,10 @@ fn draw<DB: DrawingBackend>(
             let series = [Series::new("|ξ|", COMPONENT_COLORS[0], &table.t, &n)];
             draw_time_series(
                 root,
+                opts,
                 TimePlot {
-                    caption: format!("Magnitude of the control vector |ξ| ({})", opts.title),
+                    what: "Magnitude of the control vector |ξ|",
+                    suffix: String::new(),
                     y_desc: "|ξ|",
                     series: &series,
                     y_axis: YAxis::Auto,
@@ -370,22 +428,38 @@ fn draw<DB: DrawingBackend>(
                 },
             )
         }
-        Figure::Kappa => {
-            let cols: Vec<Vec<f64>> = (0..3)
-                .map(|k| table.kappa.iter().map(|v| v[k]).collect())
-                .collect();
-            let names = ["κ₁", "κ₂", "κ₃"];
+        Figure::Kappa | Figure::Xi | Figure::XiDot => {
+            let (rows, names, what, y_desc, end_markers) = match figure {
+                Figure::Kappa => (&table.kappa, ["κ₁", "κ₂", "κ₃"], "Costates κ(t)", "κ", true),
+                Figure::Xi => (
+                    &table.xi,
+                    ["ξ₁", "ξ₂", "ξ₃"],
+                    "Control vector ξ(t)",
+                    "ξ",
+                    false,
+                ),
+                _ => (
+                    &table.xi_dot,
+                    ["dξ₁/dt", "dξ₂/dt", "dξ₃/dt"],
+                    "Rate of the control vector: u = dξ/dt",
+                    "dξ/dt",
+                    false,
+                ),
+            };
+            let cols = components(rows);
             let series: Vec<Series> = (0..3)
                 .map(|k| Series::new(names[k], COMPONENT_COLORS[k], &table.t, &cols[k]))
                 .collect();
             draw_time_series(
                 root,
+                opts,
                 TimePlot {
-                    caption: format!("Costates κ(t) ({})", opts.title),
-                    y_desc: "κ",
+                    what,
+                    suffix: String::new(),
+                    y_desc,
                     series: &series,
                     y_axis: YAxis::Auto,
-                    end_markers: true,
+                    end_markers,
                     reference: None,
                     dashed_note: None,
                     segmented,
@@ -393,12 +467,8 @@ fn draw<DB: DrawingBackend>(
             )
         }
         Figure::OmegaComponents => {
-            let om: Vec<Vec<f64>> = (0..3)
-                .map(|k| table.omega.iter().map(|v| v[k]).collect())
-                .collect();
-            let od: Vec<Vec<f64>> = (0..3)
-                .map(|k| table.omega_d.iter().map(|v| v[k]).collect())
-                .collect();
+            let om = components(&table.omega);
+            let od = components(&table.omega_d);
             let names = ["Ω₁", "Ω₂", "Ω₃"];
             let mut series: Vec<Series> = (0..3)
                 .map(|k| Series::new(names[k], COMPONENT_COLORS[k], &table.t, &om[k]))
@@ -409,22 +479,58 @@ fn draw<DB: DrawingBackend>(
                 s.dashed = true;
                 series.push(s);
             }
+            let (what, note) = if opts.desired_in_cost {
+                ("Body angular velocity Ω and desired Ω_d", "dashed: Ω_d")
+            } else {
+                (
+                    "Body angular velocity Ω",
+                    "dashed: reference path (not in the cost)",
+                )
+            };
             draw_time_series(
                 root,
+                opts,
                 TimePlot {
-                    caption: format!("Body angular velocity Ω and desired Ω_d ({})", opts.title),
+                    what,
+                    suffix: String::new(),
                     y_desc: "Ω",
                     series: &series,
                     y_axis: YAxis::Auto,
                     end_markers: false,
                     reference: None,
-                    dashed_note: Some("dashed: Ω_d"),
+                    dashed_note: Some(note),
                     segmented,
                 },
             )
         }
     };
     result.map_err(|e| e.to_string())
+}
+
+/// Where a chart goes, and the caption plotters draws above it. Without a subtitle: all of
+/// `root`, caption `<what> (<case>)<suffix>` (the figures as they were before subtitles,
+/// byte for byte). With one: `<what><suffix>` and the subtitle on two lines, drawn here
+/// `top_margin` below the top, and the area under them with no caption.
+#[allow(clippy::type_complexity)]
+fn title_area<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    what: &str,
+    suffix: &str,
+    opts: &FigureOptions,
+    top_margin: u32,
+) -> Result<(DrawingArea<DB, Shift>, Option<String>), DrawingAreaErrorKind<DB::ErrorType>> {
+    let Some(subtitle) = &opts.subtitle else {
+        return Ok((
+            root.clone(),
+            Some(format!("{what} ({}){suffix}", opts.title)),
+        ));
+    };
+    let f = Fonts::for_size(root.dim_in_pixel());
+    let area = root
+        .margin(top_margin, 0, 0, 0)
+        .titled(&format!("{what}{suffix}"), (FAMILY, f.title))?
+        .titled(subtitle, (FAMILY, f.subtitle))?;
+    Ok((area, None))
 }
 
 /// Draws a wide polyline on a chart (2-D or 3-D) and evaluates to the series annotation.
@@ -456,7 +562,10 @@ macro_rules! draw_polyline {
 
 /// What a time-series figure shows.
 struct TimePlot<'a> {
-    caption: String,
+    /// The figure's own title (the case name or subtitle is added, [`title_area`]).
+    what: &'a str,
+    /// Text after the title (and after the case name when there is no subtitle).
+    suffix: String,
     y_desc: &'a str,
     series: &'a [Series<'a>],
     y_axis: YAxis,
@@ -638,10 +747,12 @@ fn best_legend_corner(points: &[(f64, f64)], w: f64, h: f64) -> (SeriesLabelPosi
 
 fn draw_time_series<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
+    opts: &FigureOptions,
     plot: TimePlot,
 ) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
     let TimePlot {
-        caption,
+        what,
+        suffix,
         y_desc,
         series,
         y_axis,
@@ -710,7 +821,12 @@ fn draw_time_series<DB: DrawingBackend>(
     // Estimates of the plotting area and legend box sizes (label areas, margins, caption),
     // measured on rendered figures, slightly generous.
     let plot_w_est = (f64::from(root_w) - 170.0 * hs).max(1.0);
-    let plot_h_est = (f64::from(root_h) - 150.0 * hs).max(1.0);
+    let subtitle_h = if opts.subtitle.is_some() {
+        1.2 * f.subtitle + 30.0 * hs
+    } else {
+        0.0
+    };
+    let plot_h_est = (f64::from(root_h) - 150.0 * hs - subtitle_h).max(1.0);
     let legend_w = (max_chars as f64 * 0.55 * f.legend
         + f64::from(legend_len)
         + 12.0 * hs
@@ -729,6 +845,13 @@ fn draw_time_series<DB: DrawingBackend>(
         for &(p, q) in &markers {
             pts.extend(std::iter::repeat_n(to_unit(p), 200));
             pts.extend(std::iter::repeat_n(to_unit(q), 200));
+        }
+        // Nor the dashed reference line (e.g. |ξ| = 1): it is sampled like a curve.
+        if let Some((v, _)) = reference {
+            pts.extend((0..=200).map(|k| {
+                let t = t0 + (t1 - t0) * f64::from(k) / 200.0;
+                to_unit((t, v / unit))
+            }));
         }
         pts
     };
@@ -752,9 +875,14 @@ fn draw_time_series<DB: DrawingBackend>(
     let y_fmt = move |v: &f64| tick_label(*v, y_step);
     let t_fmt = move |v: &f64| tick_label(*v, t_step);
 
-    let mut chart = ChartBuilder::on(root)
-        .caption(&caption, (FAMILY, f.title))
-        .margin((20.0 * hs) as u32)
+    let margin = (20.0 * hs) as u32;
+    let (area, caption) = title_area(root, what, &suffix, opts, margin)?;
+    let mut builder = ChartBuilder::on(&area);
+    if let Some(caption) = &caption {
+        builder.caption(caption, (FAMILY, f.title));
+    }
+    let mut chart = builder
+        .margin(margin)
         .x_label_area_size((70.0 * hs) as u32)
         .y_label_area_size((130.0 * hs) as u32)
         .build_cartesian_2d(t0..t1, y0..y1)?;
@@ -923,6 +1051,336 @@ fn thin_out<P: Copy>(points: &[P], min_dist: f64, dist: impl Fn(P, P) -> f64) ->
     out
 }
 
+/// Screen position (x to the right, y down; arbitrary scale and origin) of a point in chart
+/// coordinates under a view `(yaw, pitch)`: plotters' own projection matrix.
+fn project(view: (f64, f64), p: (f64, f64, f64)) -> (f64, f64) {
+    let mut pb = ProjectionMatrixBuilder::new();
+    pb.yaw = view.0;
+    pb.pitch = view.1;
+    let m = pb.into_matrix();
+    let m: &[[f64; 4]; 4] = m.as_ref();
+    (
+        m[0][0] * p.0 + m[0][1] * p.1 + m[0][2] * p.2,
+        m[1][0] * p.0 + m[1][1] * p.1 + m[1][2] * p.2,
+    )
+}
+
+/// Width and height on screen of a cube of side 1 seen in `view`.
+fn cube_extent(view: (f64, f64)) -> (f64, f64) {
+    let corners = (0..8).map(|k| {
+        let c = |bit: u32| if k & (1 << bit) == 0 { -0.5 } else { 0.5 };
+        project(view, (c(0), c(1), c(2)))
+    });
+    let (mut x, mut y) = ((f64::MAX, f64::MIN), (f64::MAX, f64::MIN));
+    for (a, b) in corners {
+        x = (x.0.min(a), x.1.max(a));
+        y = (y.0.min(b), y.1.max(b));
+    }
+    (x.1 - x.0, y.1 - y.0)
+}
+
+/// Pitches tried by [`choose_view_3d`] (radians; 0 is a view from the side).
+const VIEW_PITCHES: [f64; 4] = [0.15, 0.3, 0.45, 0.6];
+
+/// Yaws tried by [`choose_view_3d`] in each quadrant, in degrees from a coordinate axis:
+/// nearer to an axis, the box is seen face on and two of its axes fall on one line.
+const VIEW_YAWS: &[f64] = &[20.0, 30.0, 40.0, 50.0, 60.0, 70.0];
+
+/// The view `(yaw, pitch)` of the 3-D figure chosen from the data: among the yaws 20°, 30°,
+/// …, 70° away from each coordinate axis and the pitches 0.15, 0.3, 0.45 and 0.6, the one whose screen shows the marked points
+/// (`markers`, body coordinates, e.g. Ω(a), Ω(b), ξ_∥(a), ξ_∥(b)) and the origin, where
+/// the coordinate axes meet, farthest apart (the smallest distance between two of them is
+/// the largest), plus half the spread of the curves (`curves`: how wide they look across
+/// their main direction on screen, so that a curve is not seen edge-on). Markers that
+/// coincide in space count once. [`DEFAULT_VIEW_3D`] is kept unless another view is
+/// better, and is the answer when there is nothing finite to show.
+pub fn choose_view_3d(markers: &[[f64; 3]], curves: &[&[[f64; 3]]]) -> (f64, f64) {
+    let finite = |p: &&[f64; 3]| p.iter().all(|c| c.is_finite());
+    let scale = markers
+        .iter()
+        .chain(curves.iter().flat_map(|c| c.iter()))
+        .filter(finite)
+        .fold(0.0f64, |m, &p| m.max(norm(p)));
+    if !(scale > 0.0 && scale.is_finite()) {
+        return DEFAULT_VIEW_3D;
+    }
+    let unit = |p: [f64; 3]| {
+        let (x, y, z) = to_chart(p);
+        (x / scale, y / scale, z / scale)
+    };
+    let dist = |a: [f64; 3], b: [f64; 3]| norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]]);
+    let mut points = vec![[0.0; 3]];
+    for &m in markers.iter().filter(finite) {
+        if points.iter().all(|&p| dist(p, m) > 0.02 * scale) {
+            points.push(m);
+        }
+    }
+    let points: Vec<(f64, f64, f64)> = points.into_iter().map(unit).collect();
+    let samples: Vec<Vec<(f64, f64, f64)>> = curves
+        .iter()
+        .map(|c| {
+            c.iter()
+                .step_by((c.len() / 200).max(1))
+                .filter(finite)
+                .map(|&p| unit(p))
+                .collect::<Vec<_>>()
+        })
+        .filter(|c| c.len() > 1)
+        .collect();
+    let score = |view: (f64, f64)| {
+        let screen: Vec<(f64, f64)> = points.iter().map(|&p| project(view, p)).collect();
+        let mut nearest = f64::INFINITY;
+        for (i, a) in screen.iter().enumerate() {
+            for b in &screen[i + 1..] {
+                nearest = nearest.min((a.0 - b.0).hypot(a.1 - b.1));
+            }
+        }
+        if !nearest.is_finite() {
+            nearest = 0.0;
+        }
+        let spread = samples
+            .iter()
+            .map(|c| {
+                // The smaller principal standard deviation of the projected curve.
+                let s: Vec<(f64, f64)> = c.iter().map(|&p| project(view, p)).collect();
+                let n = s.len() as f64;
+                let (mx, my) = s
+                    .iter()
+                    .fold((0.0, 0.0), |(a, b), p| (a + p.0 / n, b + p.1 / n));
+                let (mut sxx, mut syy, mut sxy) = (0.0, 0.0, 0.0);
+                for p in &s {
+                    let (dx, dy) = (p.0 - mx, p.1 - my);
+                    sxx += dx * dx / n;
+                    syy += dy * dy / n;
+                    sxy += dx * dy / n;
+                }
+                let half_trace = 0.5 * (sxx + syy);
+                let det = sxx * syy - sxy * sxy;
+                (half_trace - (half_trace * half_trace - det).max(0.0).sqrt())
+                    .max(0.0)
+                    .sqrt()
+            })
+            .sum::<f64>()
+            / samples.len().max(1) as f64;
+        nearest + 0.5 * spread
+    };
+    let mut best = (DEFAULT_VIEW_3D, score(DEFAULT_VIEW_3D));
+    for quadrant in -2..2 {
+        for &degrees in VIEW_YAWS {
+            let yaw = f64::from(quadrant) * FRAC_PI_2 + degrees.to_radians();
+            for pitch in VIEW_PITCHES {
+                let s = score((yaw, pitch));
+                if s > best.1 + 1e-9 {
+                    best = ((yaw, pitch), s);
+                }
+            }
+        }
+    }
+    best.0
+}
+
+/// The sample drawn before an entry of the 3-D figure's legend.
+#[derive(Clone, Copy)]
+enum Sample {
+    /// A line of this colour and width.
+    Line(RGBColor, u32),
+    /// A dashed line of this colour and width.
+    Dashed(RGBColor, u32),
+    /// A filled circle.
+    Circle(RGBColor),
+    /// A filled triangle.
+    Triangle(RGBColor),
+    /// None: the text continues the entry above.
+    Note,
+}
+
+/// Draws the legend of the 3-D figure in its own column `area`: a framed list of entries at
+/// the top.
+fn draw_legend_column<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    entries: &[(Sample, String)],
+    (f, hs): (&Fonts, f64),
+    (sample_len, marker): (i32, i32),
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let (w, _) = area.dim_in_pixel();
+    let line_h = (1.35 * f.legend).round() as i32;
+    let pad = (12.0 * hs) as i32;
+    let top = (30.0 * hs) as i32;
+    let height = pad * 2 + line_h * entries.len() as i32;
+    area.draw(&Rectangle::new(
+        [(0, top), (w as i32 - 1, top + height)],
+        WHITE.mix(0.9).filled(),
+    ))?;
+    area.draw(&Rectangle::new(
+        [(0, top), (w as i32 - 1, top + height)],
+        BLACK.mix(0.4),
+    ))?;
+    let text_x = pad + sample_len + pad;
+    for (i, (sample, text)) in entries.iter().enumerate() {
+        let y = top + pad + line_h * i as i32 + line_h / 2;
+        let (x0, x1) = (pad, pad + sample_len);
+        let mid = (x0 + x1) / 2;
+        match *sample {
+            Sample::Line(color, width) => {
+                area.draw(&PathElement::new(
+                    vec![(x0, y), (x1, y)],
+                    color.stroke_width(width),
+                ))?;
+            }
+            Sample::Dashed(color, width) => {
+                let d = sample_len * 3 / 10;
+                for k in 0..2 {
+                    let a = x0 + k * (sample_len - d);
+                    area.draw(&PathElement::new(
+                        vec![(a, y), (a + d, y)],
+                        color.stroke_width(width),
+                    ))?;
+                }
+            }
+            Sample::Circle(color) => {
+                let r = marker_radius(color, marker);
+                area.draw(&Circle::new((mid, y), r, color.filled()))?;
+            }
+            Sample::Triangle(color) => {
+                let size = triangle_size(marker_radius(color, marker));
+                area.draw(&TriangleMarker::new((mid, y), size, color.filled()))?;
+            }
+            Sample::Note => {}
+        }
+        let style = (FAMILY, f.legend)
+            .into_font()
+            .color(&if matches!(sample, Sample::Note) {
+                BLACK.mix(0.7)
+            } else {
+                BLACK.mix(1.0)
+            })
+            .pos(Pos::new(HPos::Left, VPos::Center));
+        area.draw(&Text::new(text.clone(), (text_x, y), style))?;
+    }
+    Ok(())
+}
+
+/// Radius of a marker of the 3-D figure: start markers (drawn first) are larger than the
+/// others, `r`.
+fn marker_radius(color: RGBColor, r: i32) -> i32 {
+    if color == START_COLOR || color == XI_START_COLOR {
+        r * 3 / 2
+    } else {
+        r
+    }
+}
+
+/// Size of a triangle marker that looks as large as a circle of radius `r`.
+fn triangle_size(r: i32) -> i32 {
+    r * 13 / 10
+}
+
+/// The 3-D chart of [`draw_omega_3d`].
+type Chart3d<'a, DB> = ChartContext<
+    'a,
+    DB,
+    plotters::coord::cartesian::Cartesian3d<RangedCoordf64, RangedCoordf64, RangedCoordf64>,
+>;
+
+/// Writes the names Ω₁, Ω₂, Ω₃ next to the box edges that carry plotters' tick labels,
+/// beyond the labels: the edge is found as plotters finds it (the axis panels and edge
+/// choice of its `configure_axes().draw()`, by projected depth), the side as plotters puts
+/// the labels (away from the centre, across the edge), `tick` being the tick size and
+/// `label` the size of the widest tick label.
+fn draw_axis_names<DB: DrawingBackend>(
+    chart: &Chart3d<'_, DB>,
+    r: f64,
+    tick: i32,
+    label: (u32, u32),
+    font: f64,
+) -> Result<(), DrawingAreaErrorKind<DB::ErrorType>> {
+    let coord = chart.as_coord_spec();
+    let depth = |v: [f64; 3]| coord.projected_depth(&v[0], &v[1], &v[2]);
+    let px = |v: [f64; 3]| coord.translate(&(v[0], v[1], v[2]));
+    let (lo, hi) = ([-r; 3], [r; 3]);
+    // The panel of each axis: at its low or high end, whichever is farther from the viewer.
+    let fixed: [f64; 3] = std::array::from_fn(|i| {
+        let mut c = lo;
+        c[i] = hi[i];
+        if depth(lo) >= depth(c) {
+            lo[i]
+        } else {
+            hi[i]
+        }
+    });
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
+    let (x_mid, y_mid) = ((xr.start + xr.end) / 2, (yr.start + yr.end) / 2);
+    // Chart axes x, y, z are Ω₂, Ω₃, Ω₁ (`to_chart`).
+    let names = ["Ω₂", "Ω₃", "Ω₁"];
+    for (idx, name) in names.iter().enumerate() {
+        let mut plan = Vec::with_capacity(4);
+        for i in (0..3).filter(|&i| i != idx) {
+            let j = 3 - i - idx;
+            for jv in [lo[j], hi[j]] {
+                let mut s = lo;
+                s[i] = fixed[i];
+                s[j] = jv;
+                let mut e = s;
+                e[idx] = hi[idx];
+                plan.push((s, e));
+            }
+        }
+        let Some(&(s, e)) = plan
+            .iter()
+            .min_by_key(|&&(s, e)| (depth(s) + depth(e), px(s).1 + px(e).1))
+        else {
+            continue;
+        };
+        let (b, en) = (px(s), px(e));
+        let axis_dir = (en.0 - b.0, en.1 - b.1);
+        // plotters' label side: horizontal or vertical, away from the centre, whichever is
+        // more across the edge.
+        let x_dir = if b.0 < x_mid { -1.0 } else { 1.0 };
+        let y_dir = if b.1 < y_mid { -1.0 } else { 1.0 };
+        let horizontal =
+            (x_dir * f64::from(axis_dir.0)).abs() < (y_dir * f64::from(axis_dir.1)).abs();
+        let dir = if horizontal {
+            (x_dir, 0.0)
+        } else {
+            (0.0, y_dir)
+        };
+        // The unit normal of the edge on the labels' side, and how far along it the tick
+        // labels reach (their boxes: 2 ticks out along `dir`, anchored at the near side).
+        let len = f64::from(axis_dir.0).hypot(f64::from(axis_dir.1)).max(1.0);
+        let mut n = (-f64::from(axis_dir.1) / len, f64::from(axis_dir.0) / len);
+        if n.0 * dir.0 + n.1 * dir.1 < 0.0 {
+            n = (-n.0, -n.1);
+        }
+        let t = f64::from(tick);
+        let (lw, lh) = (f64::from(label.0), f64::from(label.1));
+        let reach = if horizontal {
+            n.0.abs() * (2.0 * t + lw) + n.1.abs() * lh / 2.0
+        } else {
+            n.0.abs() * lw / 2.0 + n.1.abs() * (2.0 * t + lh)
+        };
+        let style = (FAMILY, font)
+            .into_font()
+            .color(&BLACK)
+            .pos(Pos::new(HPos::Center, VPos::Center));
+        let (nw, nh) = chart
+            .plotting_area()
+            .estimate_text_size(name, &style)
+            .unwrap_or((0, 0));
+        // A gap of a label's height clear of the labels' band.
+        let d = reach + lh + n.0.abs() * f64::from(nw) / 2.0 + n.1.abs() * f64::from(nh) / 2.0;
+        let mut m = s;
+        m[idx] = 0.5 * (lo[idx] + hi[idx]);
+        let (mx, my) = px(m);
+        let pos = (mx + (n.0 * d).round() as i32, my + (n.1 * d).round() as i32);
+        // `translate` gives backend pixels: draw in screen coordinates.
+        chart
+            .plotting_area()
+            .use_screen_coord()
+            .draw(&Text::new(name.to_string(), pos, style))?;
+    }
+    Ok(())
+}
+
 fn draw_omega_3d<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     table: &TrajectoryTable,
@@ -932,21 +1390,22 @@ fn draw_omega_3d<DB: DrawingBackend>(
     let hs = f64::from(root.dim_in_pixel().1) / 900.0;
     let segmented = opts.format == FigureFormat::Png;
     let e = &opts.ellipsoid;
-    let omega: Vec<[f64; 3]> = table
-        .omega
-        .iter()
-        .copied()
-        .filter(|v| v.iter().all(|c| c.is_finite()))
-        .collect();
+    let finite = |v: &[f64; 3]| v.iter().all(|c| c.is_finite());
+    let omega: Vec<[f64; 3]> = table.omega.iter().copied().filter(finite).collect();
     let desired: Vec<[f64; 3]> = opts
         .desired_extended
         .as_deref()
         .unwrap_or(&table.omega_d)
         .iter()
         .copied()
-        .filter(|v| v.iter().all(|c| c.is_finite()))
+        .filter(finite)
         .collect();
     let xi_par: Vec<[f64; 3]> = table.xi_par(e).into_iter().flatten().collect();
+    // Ω_d(b), marked when Ω_d is drawn beyond b.
+    let desired_b = opts
+        .desired_extended
+        .as_ref()
+        .and_then(|_| table.omega_d.iter().rev().copied().find(finite));
 
     // One cube for all axes so that the ellipsoid keeps its true shape.
     let data_max = omega
@@ -957,24 +1416,111 @@ fn draw_omega_3d<DB: DrawingBackend>(
         .fold(0.0f64, |m, c| m.max(c.abs()));
     let r = 1.08 * e.semi_axes().iter().fold(data_max, |m, &a| m.max(a));
 
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!("Ω, Ω_d and ξ_∥ on the energy ellipsoid E ({})", opts.title),
-            (FAMILY, f.title),
-        )
-        .margin((10.0 * hs) as u32)
+    // Markers (point, shape and colour, legend text), in the legend's order: Ω(a), Ω(b),
+    // ξ_∥(a), ξ_∥(b), Ω_d(b).
+    let desired_b_label = if opts.desired_in_cost {
+        "Ω_d(b)"
+    } else {
+        "reference path at b"
+    };
+    let markers: Vec<([f64; 3], Sample, &str)> = [
+        (omega.first(), Sample::Circle(START_COLOR), "Ω(a), start"),
+        (omega.last(), Sample::Circle(END_COLOR), "Ω(b), end"),
+        (
+            xi_par.first(),
+            Sample::Triangle(XI_START_COLOR),
+            "ξ_∥(a), start",
+        ),
+        (xi_par.last(), Sample::Triangle(XI_END_COLOR), "ξ_∥(b), end"),
+        (
+            desired_b.as_ref(),
+            Sample::Circle(YELLOW_MARKER),
+            desired_b_label,
+        ),
+    ]
+    .into_iter()
+    .filter_map(|(p, sample, text)| Some((*p?, sample, text)))
+    .collect();
+    let view = opts.view_3d.unwrap_or_else(|| {
+        let points: Vec<[f64; 3]> = markers.iter().map(|m| m.0).collect();
+        choose_view_3d(&points, &[&omega, &xi_par])
+    });
+
+    let rad = (7.0 * hs).max(2.0) as i32;
+    // Curves, drawn in this order: Ω last, on top (it stays visible where it runs along
+    // Ω_d, drawn as a wider band under it).
+    let width = (2.5 * hs).max(1.0) as u32;
+    let band = (8.0 * hs).max(3.0) as u32;
+    let thin = (1.5 * hs).max(1.0) as u32;
+    let desired_sample = if opts.desired_in_cost {
+        Sample::Line(DESIRED_COLOR, band)
+    } else {
+        Sample::Dashed(REFERENCE_COLOR, thin)
+    };
+    let mut legend: Vec<(Sample, String)> =
+        vec![(Sample::Line(OMEGA_COLOR, width), "Ω (optimal)".into())];
+    if opts.desired_in_cost {
+        legend.push((desired_sample, "Ω_d (desired)".into()));
+    } else {
+        legend.push((desired_sample, "reference path".into()));
+        legend.push((Sample::Note, "(not in the cost)".into()));
+    }
+    legend.push((Sample::Line(XI_COLOR, width), "ξ_∥ (control, on E)".into()));
+    legend.extend(
+        markers
+            .iter()
+            .map(|(_, sample, text)| (*sample, text.to_string())),
+    );
+
+    // Layout: the title lines, then the chart with the legend in a column at its right.
+    let margin = (10.0 * hs) as u32;
+    let what = if opts.desired_in_cost {
+        "Ω, Ω_d and ξ_∥ on the energy ellipsoid E"
+    } else {
+        "Ω and ξ_∥ on the energy ellipsoid E"
+    };
+    let area = match title_area(root, what, "", opts, margin)? {
+        (area, Some(caption)) => area
+            .margin(margin, 0, 0, 0)
+            .titled(&caption, (FAMILY, f.title))?,
+        (area, None) => area,
+    };
+    let legend_font: TextStyle = (FAMILY, f.legend).into();
+    let text_w = legend
+        .iter()
+        .map(|(_, t)| area.estimate_text_size(t, &legend_font).map_or(0, |s| s.0))
+        .max()
+        .unwrap_or(0);
+    let sample_len = (40.0 * hs) as i32;
+    let legend_w = (text_w as i32 + sample_len + (36.0 * hs) as i32).max(1) as u32;
+    let (area_w, _) = area.dim_in_pixel();
+    let split = area_w.saturating_sub(legend_w + margin).max(area_w / 2);
+    let (chart_area, legend_area) = area.split_horizontally(split);
+    let legend_area = legend_area.margin(0, 0, 0, margin);
+
+    let mut chart = ChartBuilder::on(&chart_area)
+        .margin(margin)
         .build_cartesian_3d(-r..r, -r..r, -r..r)?;
-    let (yaw, pitch) = opts.view_3d;
+    // As large as fits with room for the tick labels and axis names around the box.
+    let (pw, ph) = chart.plotting_area().dim_in_pixel();
+    let coord_size = f64::from(pw.min(ph) * 4 / 5).max(1.0);
+    let (cw, ch) = cube_extent(view);
+    let room = (f64::from(pw) - 180.0 * hs, f64::from(ph) - 120.0 * hs);
+    let scale = (room.0 / (coord_size * cw))
+        .min(room.1 / (coord_size * ch))
+        .clamp(0.3, 0.9);
     chart.with_projection(|mut pb| {
-        pb.yaw = yaw;
-        pb.pitch = pitch;
-        pb.scale = 0.9;
+        pb.yaw = view.0;
+        pb.pitch = view.1;
+        pb.scale = scale;
         pb.into_matrix()
     });
     let label_fmt = |v: &f64| format!("{v:.0}");
+    let tick = (6.0 * hs).max(2.0) as i32;
     chart
         .configure_axes()
         .label_style((FAMILY, f.label))
+        .tick_size(tick)
         .light_grid_style(BLACK.mix(0.05))
         .bold_grid_style(BLACK.mix(0.12))
         .max_light_lines(1)
@@ -982,95 +1528,72 @@ fn draw_omega_3d<DB: DrawingBackend>(
         .y_formatter(&label_fmt)
         .z_formatter(&label_fmt)
         .draw()?;
+    let widest = root
+        .estimate_text_size(&label_fmt(&-r.abs().floor()), &(FAMILY, f.label).into())
+        .unwrap_or((0, 0));
+    draw_axis_names(&chart, r, tick, widest, f.desc)?;
 
-    // Wireframe of E and the coordinate axes through the origin, with their names.
+    // Wireframe of E and the coordinate axes through the origin.
     let wire = BLACK.mix(0.13).stroke_width(1);
     for line in ellipsoid_wireframe(e, 7, 12) {
         chart.draw_series(LineSeries::new(line.into_iter().map(to_chart), wire))?;
     }
     let axis_style = BLACK.mix(0.45).stroke_width(1);
-    let names = ["Ω₁", "Ω₂", "Ω₃"];
-    for (k, name) in names.iter().enumerate() {
+    for k in 0..3 {
         let mut lo = [0.0; 3];
         let mut hi = [0.0; 3];
         lo[k] = -r;
         hi[k] = r;
         chart.draw_series(LineSeries::new([to_chart(lo), to_chart(hi)], axis_style))?;
-        let mut at = [0.0; 3];
-        at[k] = 1.04 * r;
-        chart.draw_series(std::iter::once(Text::new(
-            name.to_string(),
-            to_chart(at),
-            (FAMILY, f.desc).into_font().color(&BLACK),
-        )))?;
     }
 
-    let width = (2.5 * hs).max(1.0) as u32;
-    let legend_len = (40.0 * hs) as i32;
-    let curves: [(&str, &Vec<[f64; 3]>, RGBColor); 3] = [
-        ("Ω (optimal)", &omega, OMEGA_COLOR),
-        ("Ω_d (desired)", &desired, DESIRED_COLOR),
-        ("ξ_∥ (control, on E)", &xi_par, XI_COLOR),
-    ];
-    for (name, pts, color) in curves {
-        let thinned: Vec<(f64, f64, f64)> = thin_out(pts, 0.006 * r, |a, b| {
+    let thinned = |pts: &[[f64; 3]]| -> Vec<(f64, f64, f64)> {
+        thin_out(pts, 0.006 * r, |a, b| {
             norm([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
         })
         .into_iter()
         .map(to_chart)
-        .collect();
-        draw_polyline!(chart, &thinned, color, width, segmented)
-            .label(name)
-            .legend(move |(x, y)| {
-                PathElement::new(vec![(x, y), (x + legend_len, y)], color.stroke_width(width))
-            });
+        .collect()
+    };
+    let desired_pts = thinned(&desired);
+    if opts.desired_in_cost {
+        draw_polyline!(chart, &desired_pts, DESIRED_COLOR, band, segmented);
+    } else {
+        let dash = (12.0 * hs) as u32;
+        chart.draw_series(DashedLineSeries::new(
+            desired_pts,
+            dash,
+            dash * 2 / 3,
+            REFERENCE_COLOR.stroke_width(thin),
+        ))?;
     }
-    let rad = (8.0 * hs).max(2.0) as i32;
-    for (_, pts, _) in curves {
-        if let (Some(&p), Some(&q)) = (pts.first(), pts.last()) {
-            chart.draw_series([
-                Circle::new(to_chart(p), rad, START_COLOR.filled()),
-                Circle::new(to_chart(q), rad, END_COLOR.filled()),
-            ])?;
+    draw_polyline!(chart, &thinned(&xi_par), XI_COLOR, width, segmented);
+    draw_polyline!(chart, &thinned(&omega), OMEGA_COLOR, width, segmented);
+
+    // ξ_∥'s markers under Ω's, Ω_d(b) on top; a start marker is larger than the end marker
+    // drawn over it, so that both show when a curve ends where it began.
+    let (circles, triangles): (Vec<_>, Vec<_>) = markers
+        .iter()
+        .partition(|m| matches!(m.1, Sample::Circle(_)));
+    for (p, sample, _) in triangles.into_iter().chain(circles) {
+        let p = to_chart(p);
+        match sample {
+            Sample::Triangle(color) => {
+                let size = triangle_size(marker_radius(color, rad));
+                chart.draw_series(std::iter::once(TriangleMarker::new(
+                    p,
+                    size,
+                    color.filled(),
+                )))?;
+            }
+            Sample::Circle(color) => {
+                let r = marker_radius(color, rad);
+                chart.draw_series(std::iter::once(Circle::new(p, r, color.filled())))?;
+            }
+            _ => {}
         }
     }
-    chart
-        .draw_series(std::iter::empty::<Circle<(f64, f64, f64), i32>>())?
-        .label("start")
-        .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), rad, START_COLOR.filled()));
-    chart
-        .draw_series(std::iter::empty::<Circle<(f64, f64, f64), i32>>())?
-        .label("end")
-        .legend(move |(x, y)| Circle::new((x + legend_len / 2, y), rad, END_COLOR.filled()));
-    if opts.desired_extended.is_some() {
-        if let Some(&b) = table
-            .omega_d
-            .iter()
-            .rev()
-            .find(|v| v.iter().all(|c| c.is_finite()))
-        {
-            chart
-                .draw_series(std::iter::once(Circle::new(
-                    to_chart(b),
-                    rad,
-                    YELLOW_MARKER.filled().stroke_width(1),
-                )))?
-                .label("Ω_d(b)")
-                .legend(move |(x, y)| {
-                    Circle::new((x + legend_len / 2, y), rad, YELLOW_MARKER.filled())
-                });
-        }
-    }
-    chart
-        .configure_series_labels()
-        .label_font((FAMILY, f.legend))
-        .legend_area_size(legend_len + (12.0 * hs) as i32)
-        .margin((15.0 * hs) as u32)
-        .background_style(WHITE.mix(0.9))
-        .border_style(BLACK.mix(0.4))
-        .position(SeriesLabelPosition::UpperLeft)
-        .draw()?;
-    Ok(())
+    draw_legend_column(&legend_area, &legend, (&f, hs), (sample_len, rad))
 }
 
 /// The planar path of a body (e.g. the steered sleigh on SE(2)): its reference point
@@ -1226,11 +1749,21 @@ mod tests {
             ("tiny", table(50, |t| 1e-250 * (t - 2.0))),
         ];
         for (name, tab) in cases {
-            for format in [FigureFormat::Png, FigureFormat::Svg] {
-                for fig in Figure::ALL {
-                    let bytes = render_figure_bytes(fig, &tab, &opts(format))
-                        .unwrap_or_else(|e| panic!("{name} {fig:?}: {e}"));
-                    assert!(bytes.len() > 100, "{name} {fig:?}");
+            for format in FigureFormat::ALL {
+                // As `suslov` draws them too: a subtitle, and Ω_d not in the cost.
+                let mut plain = opts(format);
+                plain.desired_extended = Some(tab.omega_d.clone());
+                let styled = FigureOptions {
+                    subtitle: Some("case: α = 1, b = 2".into()),
+                    desired_in_cost: false,
+                    ..plain.clone()
+                };
+                for o in [plain, styled] {
+                    for fig in Figure::ALL {
+                        let bytes = render_figure_bytes(fig, &tab, &o)
+                            .unwrap_or_else(|e| panic!("{name} {fig:?}: {e}"));
+                        assert!(bytes.len() > 100, "{name} {fig:?}");
+                    }
                 }
             }
         }
@@ -1258,6 +1791,76 @@ mod tests {
             handles.into_iter().map(|h| h.join().unwrap()).collect()
         });
         assert_eq!(serial, parallel);
+    }
+
+    /// The smallest screen distance between the origin and the distinct markers.
+    fn nearest(view: (f64, f64), markers: &[[f64; 3]]) -> f64 {
+        let pts: Vec<(f64, f64)> = std::iter::once([0.0; 3])
+            .chain(markers.iter().copied())
+            .map(|p| project(view, to_chart(p)))
+            .collect();
+        let mut d = f64::INFINITY;
+        for (i, a) in pts.iter().enumerate() {
+            for b in &pts[i + 1..] {
+                d = d.min((a.0 - b.0).hypot(a.1 - b.1));
+            }
+        }
+        d
+    }
+
+    #[test]
+    fn the_chosen_view_separates_the_markers() {
+        // The paper's η = 1 case: Ω(a) on the Ω₁ axis, the spiral about it.
+        let markers = [
+            [5.0, 0.0, 0.0],
+            [2.75, -2.3, -1.5],
+            [-1.0, 2.0, 2.0],
+            [0.5, -2.5, 1.5],
+        ];
+        let spiral: Vec<[f64; 3]> = (0..500)
+            .map(|i| {
+                let s = f64::from(i) / 499.0;
+                let (a, b) = (12.0 * s).sin_cos();
+                [5.0 - 2.0 * s, 3.0 * s * a, 2.5 * s * b]
+            })
+            .collect();
+        let view = choose_view_3d(&markers, &[&spiral]);
+        assert!(nearest(view, &markers) >= nearest(DEFAULT_VIEW_3D, &markers));
+        assert!(nearest(view, &markers) > 0.15 * 5.0, "{view:?}");
+        // Never face on: 20° .. 70° from the coordinate axes.
+        let from_axis = view.0.rem_euclid(FRAC_PI_2).to_degrees();
+        assert!((19.9..=70.1).contains(&from_axis), "{view:?}");
+        // Nothing finite to show: the default view.
+        assert_eq!(choose_view_3d(&[], &[]), DEFAULT_VIEW_3D);
+        assert_eq!(choose_view_3d(&[[f64::NAN; 3]], &[]), DEFAULT_VIEW_3D);
+        // Markers that coincide count once (and do not force a zero distance).
+        let twice = [markers[0], markers[0], markers[1]];
+        assert!(nearest(choose_view_3d(&twice, &[]), &twice[1..]) > 0.0);
+    }
+
+    #[test]
+    fn subtitles_and_formats() {
+        assert_eq!(
+            case_subtitle("eta_0.01", &[("α", 1.0), ("η", 0.01)], 9.8383264),
+            "eta_0.01: α = 1, η = 0.01, b = 9.83833"
+        );
+        assert_eq!(
+            FigureFormat::ALL.map(FigureFormat::extension),
+            ["png", "svg"]
+        );
+        let stems: Vec<&str> = Figure::ALL.iter().map(|f| f.stem()).collect();
+        assert_eq!(
+            stems,
+            [
+                "omega_3d",
+                "constraint",
+                "xi_norm",
+                "kappa",
+                "omega",
+                "xi",
+                "xi_dot"
+            ]
+        );
     }
 
     #[test]

@@ -8,20 +8,27 @@
 //!   [`TRAJECTORY_CSV_HEADER`], shortest round-trip `f64` text, so values read back exactly;
 //! - a JSON summary ([`write_summary_json`]): pretty-printed, non-finite numbers as `null`;
 //! - the figures of section 5.3 of the paper ([`write_case_figures`]): `omega_3d`,
-//!   `constraint`, `xi_norm`, `kappa` and `omega`, as PNG by default (text drawn from an
-//!   embedded font, so no system font library is needed) or SVG.
+//!   `constraint`, `xi_norm`, `kappa`, `omega`, `xi` and `xi_dot`, as PNG by default (text
+//!   drawn from an embedded font, so no system font library is needed) or SVG.
 //!
 //! ## Figures
 //!
-//! One directory per case, files `<stem>.png` (or `.svg`), titles carrying the case name:
+//! One directory per case, files `<stem>.png` or `.svg` (`suslov solve` and `paper` write
+//! both, [`FigureFormat::ALL`]). Titles carry the case name, or, with
+//! [`FigureOptions::subtitle`], a second line such as the paper's captions give (`suslov`
+//! writes the weights and b there: `eta_1: α = 1, β = 0.1, γ = 1, η = 1, δ = 0.2, b =
+//! 11.3596`, [`case_subtitle`]). With [`FigureOptions::desired_in_cost`] `false` (γ = 0),
+//! Ω_d is "the reference path (not in the cost)", never "desired".
 //!
 //! | stem | content |
 //! | --- | --- |
-//! | `omega_3d` | 3-D view of Ω(t), Ω_d(t) and ξ_∥(t) (ξ projected along its ray onto `E`), wireframe of the energy ellipsoid `E`, coordinate axes Ω₁, Ω₂, Ω₃ through the origin; green marker at the start and red at the end of each curve, yellow at Ω_d(b) when [`FigureOptions::desired_extended`] is given |
+//! | `omega_3d` | 3-D view of Ω(t), Ω_d(t) and ξ_∥(t) (ξ projected along its ray onto `E`), wireframe of the energy ellipsoid `E`, coordinate axes through the origin, Ω₁, Ω₂, Ω₃ written at the box edges that carry the tick labels; Ω drawn last, over Ω_d (a wide grey band; thin and dashed when not in the cost); markers Ω(a) green, Ω(b) red (circles), ξ_∥(a) cyan, ξ_∥(b) magenta (triangles), Ω_d(b) yellow when [`FigureOptions::desired_extended`] is given; the legend in a column at the right; the view chosen from the data ([`choose_view_3d`]) unless [`FigureOptions::view_3d`] gives one |
 //! | `constraint` | ⟨Ω, ξ⟩ against t, symmetric y range in units of a power of ten (e.g. `[×10⁻¹²]`), max \|⟨Ω, ξ⟩\| in the title |
 //! | `xi_norm` | \|ξ\| against t with a dashed reference line at 1 |
 //! | `kappa` | κ₁, κ₂, κ₃ against t with start / end markers and a legend |
 //! | `omega` | Ω₁, Ω₂, Ω₃ (solid) and Ω_d (dashed, same colours) against t |
+//! | `xi` | ξ₁, ξ₂, ξ₃ against t |
+//! | `xi_dot` | the control ξ̇ = dξ/dt: its three components against t |
 //!
 //! **Format.** PNG is the default: `plotters`' `ab_glyph` feature rasterises text from a
 //! subset of DejaVu Sans embedded in the library (`src/report/font/`, Bitstream Vera
@@ -56,8 +63,8 @@ pub use csv::{
 };
 pub use error::ReportError;
 pub use figures::{
-    render_figure_bytes, render_planar_path_png, write_case_figures, write_figure, Figure,
-    FigureFormat, FigureOptions,
+    case_subtitle, choose_view_3d, render_figure_bytes, render_planar_path_png, write_case_figures,
+    write_figure, Figure, FigureFormat, FigureOptions, DEFAULT_VIEW_3D,
 };
 pub use npz::{npy_1d_bytes, npz_bytes};
 pub use number::significant;
