@@ -8,7 +8,7 @@
 //! DIR/summary.json             one entry per case (see report::CaseSummary)
 //! DIR/<case>/trajectory.csv    t, Ω, ξ, ξ̇, κ, Ω_d on a uniform grid of [a, b]
 //! DIR/<case>/trajectory.npy    the same table for numpy (float64, shape (rows, 16))
-//! DIR/<case>/*.png             Ω, Ω_d and ξ_∥ in 3-D; ⟨Ω, ξ⟩; |ξ|; κ; Ω components
+//! DIR/<case>/*.png, *.svg   Ω, Ω_d and ξ_∥ in 3-D; ⟨Ω, ξ⟩; |ξ|; κ; Ω components; ξ; ξ̇
 //! ```
 //!
 //! [`run_solve`] does the same for one problem read from a TOML file ([`crate::config`]),
