@@ -398,7 +398,12 @@ fn draw<DB: DrawingBackend>(
                 opts,
                 TimePlot {
                     what: "Constraint ⟨Ω, ξ⟩",
-                    suffix: format!("; max |⟨Ω, ξ⟩| = {max:.2e}"),
+                    // The grid is named: the run's summary takes the same maximum on the
+                    // checks' finer grid, and says so too.
+                    suffix: format!(
+                        "; max |⟨Ω, ξ⟩| = {max:.2e} on these {} points",
+                        table.t.len()
+                    ),
                     y_desc: "⟨Ω, ξ⟩",
                     series: &series,
                     y_axis: YAxis::Symmetric,
