@@ -2232,16 +2232,17 @@ impl ProblemFile {
             "terminal_time".into(),
             resolved::terminal_time(fixed, terminal.initial()),
         );
-        let cost = section(&mut t, "cost");
-        for (k, v) in [
-            ("alpha", alpha),
-            ("beta", beta),
-            ("gamma", gamma),
-            ("eta", eta),
-            ("delta", delta),
-        ] {
-            cost.insert(k.into(), toml::Value::Float(v));
-        }
+        let weights = CostWeights {
+            alpha,
+            beta,
+            gamma,
+            eta,
+            delta,
+        };
+        t.insert(
+            "cost".into(),
+            toml::Value::Table(resolved::so3_cost(&weights)),
+        );
         let (keys, raw) = &desired.resolved;
         t.insert("desired".into(), toml::Value::Table(keys.clone()));
         let (solver, start_file) = resolved::solver(options, &crate::model::generated::STATE_NAMES);

@@ -85,6 +85,18 @@ pub(crate) fn section<'a>(t: &'a mut toml::Table, key: &str) -> &'a mut toml::Ta
     }
 }
 
+/// `[cost]` of an so(3) problem: every weight under its generated name
+/// (`model::generated::WEIGHTS`, the keys of the so(3) file's `[cost]`).
+pub(crate) fn so3_cost(weights: &crate::suslov::problem::CostWeights) -> toml::Table {
+    use crate::model::generated as g;
+    // The inertia does not enter the weights' slots.
+    let p = crate::suslov::problem::model_params([1.0; crate::suslov::problem::N_INERTIA], weights);
+    g::WEIGHTS
+        .iter()
+        .map(|m| (m.name.to_string(), toml::Value::Float(p[m.index])))
+        .collect()
+}
+
 /// `terminal_time = { fixed = b }` or `{ free = true, guess = b }`.
 pub(crate) fn terminal_time(fixed: Option<f64>, guess: f64) -> toml::Value {
     let mut t = toml::Table::new();
@@ -176,17 +188,10 @@ pub fn paper_case(case: &crate::suslov::paper::PaperCase) -> ResolvedInput {
         "terminal_time".into(),
         terminal_time(None, problem.terminal.initial()),
     );
-    let w = problem.weights;
-    let cost = section(&mut t, "cost");
-    for (k, v) in [
-        ("alpha", w.alpha),
-        ("beta", w.beta),
-        ("gamma", w.gamma),
-        ("eta", w.eta),
-        ("delta", w.delta),
-    ] {
-        cost.insert(k.into(), toml::Value::Float(v));
-    }
+    t.insert(
+        "cost".into(),
+        toml::Value::Table(so3_cost(&problem.weights)),
+    );
     let desired = section(&mut t, "desired");
     desired.insert("kind".into(), toml::Value::String("paper-spiral".into()));
     desired.insert("c".into(), toml::Value::Float(spiral.c()));
