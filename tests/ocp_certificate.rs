@@ -6,15 +6,17 @@
 //! - the oscillator `ẋ = u`, `L = (u² − x²)/2`, `x(0) = 0`, `x(T) = 1`: the extremal
 //!   `x = sin t / sin T` is a minimum for `T < π` and a saddle for `T > π` (conjugate point at
 //!   π), with margin `μ_min → 1 − (T/π)²`: the certificate must say yes, and no;
-//! - a free-time problem with optimal `T* = 1/√(2δ)`.
+//! - a free-time problem with optimal `T* = 1/√(2δ)`;
+//! - the globalized SQP: the minimum from a rough start, no stop at a saddle, a certified
+//!   minimum of a nonlinear problem.
 
 mod ocpkit;
 use ocpkit::{dense, dense_reduced};
 use suslov::ocp::certify::second_order;
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
-    certify, Boundary, Certificate, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
-    Transcription, Verdict,
+    certify, sqp, Boundary, Certificate, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
+    SqpError, SqpOptions, Transcription, Verdict,
 };
 
 /// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
@@ -440,4 +442,117 @@ fn least_squares_multipliers_vanish_residual_at_kkt_point() {
         .zip(&pt.y)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
     assert!(diff < 1e-10, "multipliers differ by {diff}");
+}
+
+/// The globalized SQP ([`suslov::ocp::sqp`]) from a start far from the answer (everything 0,
+/// the end condition violated) finds the oscillator's minimum for `T = 2 < π`: the KKT point
+/// Newton's method reaches from the exact extremal, certified a minimum.
+#[test]
+fn sqp_finds_the_oscillator_minimum_from_a_rough_start() {
+    let prob = Quadratic::oscillator(false);
+    let t_len = 2.0;
+    let tr = oscillator_transcription(&prob, t_len, 40);
+    let (point, report) = sqp(&tr, vec![0.0; tr.n_var()], &SqpOptions::default()).expect("sqp");
+    let reference = certify_default(&tr, oscillator_extremal(&tr, t_len));
+    let gap = point
+        .v
+        .iter()
+        .zip(&reference.point.v)
+        .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
+    eprintln!(
+        "oscillator T = 2: {} SQP iterations, |v_sqp - v_newton| = {gap:.1e}, J = {}",
+        report.iterations, report.objective
+    );
+    assert!(gap < 1e-8, "{gap}");
+    assert!(report.residual.feasibility <= SqpOptions::default().tolerance);
+    assert_eq!(report.history.len(), report.iterations);
+    // Exact extremal's cost x(T) x'(T) / 2 = cot(T) / 2 (discretization error O(h^4)).
+    let exact = 0.5 / t_len.tan();
+    assert!(
+        (report.objective - exact).abs() < 1e-6,
+        "{} vs {exact}",
+        report.objective
+    );
+    assert_eq!(
+        certify_default(&tr, point.v).second_order.verdict,
+        Verdict::Certified
+    );
+}
+
+/// For `T = 4 > π` the oscillator's extremal is a saddle and the cost is unbounded below.
+/// Newton's method on the KKT conditions converges to the saddle; the SQP, whose inertia
+/// correction makes every step a descent step, must not report it (nor anything) as a
+/// minimum: it stops without a KKT point.
+#[test]
+fn sqp_does_not_stop_at_a_saddle() {
+    let prob = Quadratic::oscillator(false);
+    let t_len = 4.0;
+    let tr = oscillator_transcription(&prob, t_len, 40);
+    let saddle = certify_default(&tr, oscillator_extremal(&tr, t_len));
+    assert_eq!(saddle.second_order.verdict, Verdict::NotMinimum);
+    let saddle_cost = tr.objective(&saddle.point.v);
+    let start = tr.primal_from_fn(t_len, |t, z| {
+        z[0] = t / t_len;
+        z[1] = 1.0 / t_len;
+    });
+    let options = SqpOptions {
+        max_iterations: 60,
+        ..SqpOptions::default()
+    };
+    match sqp(&tr, start, &options) {
+        Ok((point, report)) => panic!(
+            "the SQP reported a KKT point of an unbounded problem: J = {}, {} iterations, \
+             |v| = {}",
+            report.objective,
+            report.iterations,
+            point.v.iter().fold(0.0_f64, |m, x| m.max(x.abs()))
+        ),
+        Err(e) => {
+            eprintln!("saddle T = 4 (J = {saddle_cost}): {e}");
+            assert!(
+                matches!(
+                    e,
+                    SqpError::NotConverged { .. }
+                        | SqpError::LineSearch { .. }
+                        | SqpError::NonFiniteStart
+                ),
+                "{e}"
+            );
+        }
+    }
+}
+
+/// A nonlinear, time-dependent problem from zeros: the SQP's point is a KKT point that the
+/// certificate certifies as a minimum (Newton's method moves it by no more than the
+/// tolerance allows).
+#[test]
+fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
+    let p = Pendulum { delta: 0.0 };
+    let boundary = Boundary {
+        start: vec![(0, 0.0), (1, 0.0)],
+        end: vec![(0, 1.0), (1, 0.0)],
+        start_linear: vec![],
+    };
+    let horizon = Horizon::Fixed {
+        t0: 0.0,
+        length: 2.0,
+    };
+    let tr = Transcription::new(&p, boundary, horizon, uniform_mesh(30)).expect("valid");
+    let (point, report) = sqp(&tr, vec![0.0; tr.n_var()], &SqpOptions::default()).expect("sqp");
+    let residual = kkt::residual(&tr, &point);
+    assert!(residual.relative_stationarity() <= 1e-8, "{residual:?}");
+    assert!(residual.feasibility <= 1e-8, "{residual:?}");
+    let cert = certify(
+        &tr,
+        point.v.clone(),
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .expect("certificate");
+    eprintln!(
+        "pendulum: {} SQP iterations ({} regularized), J = {}, Newton moved it {:.1e}",
+        report.iterations, report.regularized, report.objective, cert.displacement
+    );
+    assert_eq!(cert.second_order.verdict, Verdict::Certified);
+    assert!(cert.displacement < 1e-6, "{}", cert.displacement);
 }

@@ -63,7 +63,7 @@ use crate::ocp::{
 };
 
 use super::path::Path;
-use super::problem::{with_buffer, LieBvp, TerminalTime};
+use super::problem::{with_buffer, LieBvp, Problem, TerminalTime};
 use super::solve::LieSolution;
 
 /// The certificate of one solution, with the comparison of the multipliers and κ.
@@ -123,19 +123,24 @@ pub struct LieOcp<'a, M: Model> {
 impl<'a, M: Model> LieOcp<'a, M> {
     /// The direct problem of `sol`'s problem (its constants and desired path).
     pub fn new(sol: &'a LieSolution<M>) -> Self {
+        Self::for_problem(&sol.problem)
+    }
+
+    /// The direct problem of `problem` (its constants and desired path).
+    pub fn for_problem(problem: &'a Problem<M>) -> Self {
         Self {
-            params: sol.problem.params(),
-            desired: &*sol.problem.desired,
+            params: problem.params(),
+            desired: &*problem.desired,
             model: PhantomData,
         }
     }
 
     /// `x = [Ω, ξ]`: the state's first two blocks.
-    const NX: usize = M::XIDOT.start;
+    pub const NX: usize = M::XIDOT.start;
     /// `u = ξ̇`.
-    const NU: usize = M::DIM;
+    pub const NU: usize = M::DIM;
     /// `z = [x, u]`.
-    const NZ: usize = M::KAPPA.start;
+    pub const NZ: usize = M::KAPPA.start;
 }
 
 impl<M: Model> OcpProblem for LieOcp<'_, M> {
@@ -216,7 +221,20 @@ pub fn transcription<'a, M: Model>(
     ocp_problem: &'a LieOcp<'a, M>,
     sol: &LieSolution<M>,
 ) -> Result<Transcription<'a, LieOcp<'a, M>>, ocp::TranscriptionError> {
-    let p = &sol.problem;
+    let mut mesh = sol.bvp.x.clone();
+    if let Some(last) = mesh.len().checked_sub(1) {
+        mesh[0] = 0.0;
+        mesh[last] = 1.0;
+    }
+    transcription_on(ocp_problem, &sol.problem, mesh)
+}
+
+/// The transcription of `p` on the normalized `mesh` (`0 = s_0 < … < s_N = 1`).
+pub fn transcription_on<'a, M: Model>(
+    ocp_problem: &'a LieOcp<'a, M>,
+    p: &Problem<M>,
+    mesh: Vec<f64>,
+) -> Result<Transcription<'a, LieOcp<'a, M>>, ocp::TranscriptionError> {
     // With a nonzero constraint value the start constraint φ(a) = ⟨Ω_a, ξ(a)⟩ − γ = 0 is
     // imposed as in the BVP (super::problem; with a vanishing one it is redundant, and its
     // multiplier not unique); with Ω(a) prescribed it is linear in ξ(a) when γ does not depend
@@ -244,11 +262,6 @@ pub fn transcription<'a, M: Model>(
         },
         TerminalTime::Free { .. } => Horizon::Free { t0: p.t0 },
     };
-    let mut mesh = sol.bvp.x.clone();
-    if let Some(last) = mesh.len().checked_sub(1) {
-        mesh[0] = 0.0;
-        mesh[last] = 1.0;
-    }
     Transcription::new(ocp_problem, boundary, horizon, mesh)
 }
 

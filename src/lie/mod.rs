@@ -13,6 +13,7 @@
 //!   measured on a solution and the [`Verification`](checks::Verification) thresholds and verdict;
 //! - [`verify`]: the a-posteriori checks of a [`LieSolution`];
 //! - [`certify`](mod@certify): the second-order certificate (local minimum or not);
+//! - [`direct`]: the direct start (a minimum of the transcribed problem by SQP) for the BVP;
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
 //! This layer knows nothing of the so(3) problem layer ([`crate::suslov`]), which predates it
@@ -27,6 +28,7 @@ pub mod certify;
 pub mod checks;
 pub mod collapse;
 pub mod controllability;
+pub mod direct;
 pub mod expression;
 pub mod path;
 pub mod problem;

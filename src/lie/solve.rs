@@ -57,6 +57,12 @@
 //! parameter, β before tracking, the starts not taken, a finer mesh.
 //! Each starts from the beginning, at most [`SolveOptions::max_routes`] in all; every route
 //! tried is listed with why it stopped ([`LieSolution::routes`], the summary's `routes`).
+//! When they all stop on a fixed-`b` problem (with `max_routes > 1` and the start left to the
+//! solver, [`StartStrategy::Auto`]), one more route does not
+//! continue at all: the **direct start** ([`DIRECT_START_ROUTE`], [`super::direct`]) minimizes
+//! the transcribed control problem by SQP from the projected segment's inverse dynamics and
+//! solves the BVP once from that minimum, reaching regular minima that no branch from the
+//! analytic start leads to.
 
 use std::sync::Arc;
 
@@ -1667,6 +1673,44 @@ fn solve_cold<M: Model>(
             }
         }
     }
+    // The direct start (fixed b): a minimum of the transcribed problem by SQP, from the
+    // projected segment's inverse dynamics, as a warm start (super::direct).
+    // Not when the caller fixed the analytic start: that choice (and its errors) stays theirs.
+    let direct = options.max_routes > 1
+        && options.start == StartStrategy::Auto
+        && !options.stopped()
+        && matches!(problem.terminal, TerminalTime::Fixed(_))
+        && matches!(
+            &first,
+            LieSolveError::StageFailed { .. } | LieSolveError::Start(_)
+        );
+    if direct {
+        let clock = std::time::Instant::now();
+        let after = routes
+            .last()
+            .and_then(|r: &RouteReport| r.stopped.clone())
+            .unwrap_or_default();
+        events(&Event::RouteStarted {
+            route: DIRECT_START_ROUTE,
+            after: &after,
+        });
+        match direct_route(problem, options, events) {
+            Ok(mut sol) => {
+                routes.push(RouteReport {
+                    route: DIRECT_START_ROUTE,
+                    stopped: None,
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                sol.routes = routes;
+                return Ok(sol);
+            }
+            Err(why) => routes.push(RouteReport {
+                route: DIRECT_START_ROUTE,
+                stopped: Some(why),
+                seconds: clock.elapsed().as_secs_f64(),
+            }),
+        }
+    }
     let mut scan = None;
     let scan_time = !options.stopped()
         && matches!(
@@ -1890,6 +1934,36 @@ pub fn alternatives<M: Model>(
         | LieSolveError::Roles { .. }
         | LieSolveError::ConstraintRoute(_)
         | LieSolveError::Unsupported(_) => None,
+    }
+}
+
+/// The name of the direct-start route (module docs, [`super::direct`]).
+pub const DIRECT_START_ROUTE: &str = "direct start";
+
+/// Intervals of the direct start's uniform mesh: at most the initial mesh's (its SQP only has
+/// to land in the BVP's basin; the BVP solve adapts the mesh).
+const DIRECT_MAX_INTERVALS: usize = 100;
+
+/// The direct-start route: [`super::direct::direct_start`], then one BVP solve from it (as
+/// [`solve_from`]'s) and the a-posteriori checks. The error is the reason it stopped.
+fn direct_route<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, String> {
+    let intervals = options.initial_intervals.clamp(1, DIRECT_MAX_INTERVALS);
+    let start = super::direct::direct_start(problem, intervals).map_err(|e| e.to_string())?;
+    let sol = warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events).map_err(|e| {
+        format!(
+            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.3}),              but the BVP from it stopped: {e}",
+            start.cost, start.min_xi
+        )
+    })?;
+    match super::verify::verify_solution(&sol).verification.verdict() {
+        super::checks::Verdict::Verified => Ok(sol),
+        super::checks::Verdict::Unverified { reason } => Err(format!(
+            "the BVP from the SQP's minimum failed the checks: {reason}"
+        )),
     }
 }
 
@@ -2231,6 +2305,15 @@ pub struct WarmStart {
     pub states: Vec<f64>,
 }
 
+/// Where a warm start comes from (it names the route's stage and start).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum WarmOrigin {
+    /// The caller's previous solution ([`solve_from`]).
+    Previous,
+    /// The direct start ([`super::direct`]).
+    Direct,
+}
+
 /// The name under which [`solve_from`] reports the warm start in [`LieSolution::routes`].
 pub const WARM_START_ROUTE: &str = "warm start";
 
@@ -2247,7 +2330,7 @@ pub fn solve_from<M: Model>(
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     let clock = std::time::Instant::now();
-    let stopped = match warm_solve(problem, options, warm, events) {
+    let stopped = match warm_solve(problem, options, warm, WarmOrigin::Previous, events) {
         Ok(mut sol) => match super::verify::verify_solution(&sol).verification.verdict() {
             super::checks::Verdict::Verified => {
                 sol.routes.push(RouteReport {
@@ -2288,6 +2371,7 @@ fn warm_solve<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     warm: &WarmStart,
+    origin: WarmOrigin,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
     let bad = |why: String| LieSolveError::Start(format!("the warm start: {why}"));
@@ -2336,7 +2420,13 @@ fn warm_solve<M: Model>(
     let guess = Guess::from_values(x, warm.states.clone(), vec![])
         .with_parameters(bvp.parameters(t_span, 0.0));
     let bvp_opts = |tol: f64| bvp_options(options, tol);
-    let name = WARM_START_ROUTE;
+    let (name, omega_p) = match origin {
+        WarmOrigin::Previous => (WARM_START_ROUTE, "a previous solution (warm start)"),
+        WarmOrigin::Direct => (
+            DIRECT_START_ROUTE,
+            "the direct method's minimum (SQP on the transcribed problem)",
+        ),
+    };
     let clock = std::time::Instant::now();
     events(&Event::StageStarted {
         name,
@@ -2376,7 +2466,7 @@ fn warm_solve<M: Model>(
         t_span,
         solution: sol,
         start: StartChoice {
-            omega_p: "a previous solution (warm start)",
+            omega_p,
             case: 0,
             b_p: problem.t0 + previous_span,
             beta_m: f64::NAN,

@@ -865,6 +865,25 @@ impl LbltFactor {
     /// Cost: the numeric factorization, plus about `3 + MAX_REFINEMENT_STEPS +
     /// CONTRACTION_ITERATIONS` solves and products with `K` for the checks.
     pub fn factorize(pattern: &SymmetricPattern, values: &[f64]) -> Result<Self, InertiaError> {
+        Self::factorize_checked(pattern, values, true)
+    }
+
+    /// [`LbltFactor::factorize`] without rejecting a factorization whose refinement
+    /// contraction is large (its inertia is then not proven): for a method that only needs
+    /// steps, guarded by its own line search, such as [`super::sqp`]. A non-finite backward
+    /// error is still an error.
+    pub fn factorize_unproven(
+        pattern: &SymmetricPattern,
+        values: &[f64],
+    ) -> Result<Self, InertiaError> {
+        Self::factorize_checked(pattern, values, false)
+    }
+
+    fn factorize_checked(
+        pattern: &SymmetricPattern,
+        values: &[f64],
+        proven: bool,
+    ) -> Result<Self, InertiaError> {
         let p = &*pattern.inner;
         let n = p.n;
         if values.len() != p.entry_pos.len() {
@@ -1084,8 +1103,11 @@ impl LbltFactor {
             max_abs_l: f.max_abs_l,
         };
         factor.contraction = factor.estimate_contraction()?;
-        if berr.is_nan() || berr > BACKWARD_ERROR_TOL {
+        if berr.is_nan() || (proven && berr > BACKWARD_ERROR_TOL) {
             return Err(unreliable(&factor));
+        }
+        if !proven {
+            return Ok(factor);
         }
         // Inertia preservation: only meaningful without zero pivots (a zero eigenvalue of K is
         // an eigenvalue 1 of I − M⁻¹K).

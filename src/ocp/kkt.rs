@@ -104,6 +104,8 @@ pub struct KktMatrix {
     entries: Vec<(usize, usize)>,
     n_var: usize,
     n_con: usize,
+    /// Whether the constraint block has a diagonal (for [`KktMatrix::values_regularized`]).
+    constraint_diagonal: bool,
 }
 
 impl KktMatrix {
@@ -125,17 +127,70 @@ impl KktMatrix {
             entries,
             n_var: nv,
             n_con: nc,
+            constraint_diagonal: false,
         })
+    }
+
+    /// [`KktMatrix::new`] with a diagonal in the constraint block too, for the matrices
+    /// `[[H + δ_w I, Aᵀ], [A, −δ_c I]]` of [`KktMatrix::values_regularized`] (a constraint
+    /// Jacobian that loses rank).
+    pub fn regularizable<P: OcpProblem + ?Sized>(
+        tr: &Transcription<'_, P>,
+        v: &[f64],
+    ) -> Result<Self, KktError> {
+        let (nv, nc) = (tr.n_var(), tr.n_con());
+        let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
+        entries.extend(
+            tr.lagrangian_hessian(v, &vec![0.0; nc])
+                .iter()
+                .map(|&(r, c, _)| (r, c)),
+        );
+        entries.extend(tr.jacobian(v).iter().map(|&(r, c, _)| (nv + r, c)));
+        entries.extend((nv..nv + nc).map(|i| (i, i)));
+        let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
+        Ok(Self {
+            pattern,
+            entries,
+            n_var: nv,
+            n_con: nc,
+            constraint_diagonal: true,
+        })
+    }
+
+    /// Values of `[[H + diag, Aᵀ], [A, −δ_c I]]` in pattern order (a matrix built by
+    /// [`KktMatrix::regularizable`]; for another, `δ_c` must be 0).
+    pub fn values_regularized(
+        &self,
+        diag: &[f64],
+        h: &[Entry],
+        a: &[Entry],
+        delta_c: f64,
+    ) -> Vec<f64> {
+        let mut values = self.values(diag, h, a);
+        if self.constraint_diagonal {
+            let start = values.len() - self.n_con;
+            values[start..].fill(-delta_c);
+        }
+        values
+    }
+
+    /// A factorization of the matrix with `values`, without the proof of its inertia
+    /// ([`LbltFactor::factorize_unproven`]).
+    pub fn factorize_unproven(&self, values: &[f64]) -> Result<LbltFactor, InertiaError> {
+        LbltFactor::factorize_unproven(&self.pattern, values)
     }
 
     /// Values in pattern order: the diagonal `diag` (`n_var`, added to the Hessian's), the
     /// Hessian entries `h` (lower triangle), the Jacobian `a` (both as the transcription
     /// returns them).
     pub fn values(&self, diag: &[f64], h: &[Entry], a: &[Entry]) -> Vec<f64> {
-        let mut values = Vec::with_capacity(self.n_var + h.len() + a.len());
+        let mut values = Vec::with_capacity(self.entries.len());
         values.extend_from_slice(diag);
         values.extend(h.iter().map(|e| e.2));
         values.extend(a.iter().map(|e| e.2));
+        if self.constraint_diagonal {
+            values.resize(self.entries.len(), 0.0);
+        }
         values
     }
 

@@ -5,6 +5,8 @@
 //! - [`transcription`]: the NLP on a mesh (4-stage Lobatto IIIA, as the BVP solver).
 //! - [`kkt`]: KKT residuals, least-squares multipliers, Newton's method on the KKT system.
 //! - [`mod@certify`]: the second-order test (inertia of the KKT matrix) and its margin.
+//! - [`sqp`]: a globalized SQP method (inertia correction, ℓ₁ merit, line search): the
+//!   direct method that finds a minimum from a rough start.
 //! - [`conjugate`]: the discrete conjugate point (where positivity is first lost in time).
 //! - [`inertia`]: inertia (numbers of positive, negative and zero eigenvalues) of sparse
 //!   symmetric (indefinite) matrices through an `L B Lᵀ` factorization.
@@ -14,6 +16,7 @@ pub mod conjugate;
 pub mod inertia;
 pub mod kkt;
 pub mod problem;
+pub mod sqp;
 pub mod transcription;
 
 pub use certify::{
@@ -21,4 +24,5 @@ pub use certify::{
 };
 pub use kkt::{KktError, KktPoint, KktResidual, NewtonOptions};
 pub use problem::{Boundary, Horizon, LinearCondition, OcpProblem};
+pub use sqp::{sqp, SqpError, SqpIterate, SqpOptions, SqpReport};
 pub use transcription::{Transcription, TranscriptionError};

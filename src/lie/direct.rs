@@ -1,0 +1,163 @@
+//! The direct start: a minimum of the discretized control problem, found by a globalized SQP
+//! method from a motion's inverse dynamics, as a warm start for the BVP.
+//!
+//! # Why
+//!
+//! The homotopy follows a branch of extremals from the analytic start to the target weights.
+//! When that branch folds back or heads where `ξ` collapses, no continuation reaches the
+//! target, although the problem may still have a regular minimum elsewhere: the direct method
+//! of `bench/casadi_direct.py` (IPOPT) found such minima for corpus problems on which every
+//! route stopped, and the BVP converges from them (`tests/missed_regular.rs`). A better
+//! *start* alone does not reach them (session 12's probe in `bench/README.md`): IPOPT gets
+//! there by its globalisation, which minimizes the cost rather than solving the optimality
+//! conditions. [`crate::ocp::sqp`] is that globalisation (inertia correction, an ℓ₁ merit
+//! function, a line search) on the problem's own transcription ([`super::certify::LieOcp`]:
+//! state `[Ω, ξ]`, control `ξ̇`, every derivative generated from the model file).
+//!
+//! # What it does
+//!
+//! 1. The start: the motion along the projected segment `Ω_a → Ω_b` over `[a, b]` (the
+//!    problem's `b`, or its guess when `b` is free), driven by its unit singular control
+//!    (`ξ = ξ̃/|ξ̃|`, `ξ̃ = 𝕀Ω̇ − ad*_Ω 𝕀Ω`, [`Model::singular_control`]), on a uniform mesh.
+//! 2. [`crate::ocp::sqp`] at the problem's own weights, to [`DIRECT_TOLERANCE`].
+//! 3. The result, `[Ω, ξ, ξ̇]` at every collocation point with the costate `κ = 0` (the
+//!    direct method has none; the BVP solve recovers it), is a [`WarmStart`] for
+//!    [`super::solve::solve_from`]'s single BVP solve.
+//!
+//! A start whose SQP stops (the infimum is not attained and `ξ` collapses, the line search
+//! fails) is reported with the method's reason, not hidden.
+
+use crate::model::Model;
+use crate::ocp::{self, SqpOptions, SqpReport};
+
+use super::certify::{transcription_on, LieOcp};
+use super::path::{projected_segment, Path};
+use super::problem::{with_buffer, Problem, ENERGY_REL_TOL};
+use super::solve::WarmStart;
+
+/// The tolerance of the SQP (relative stationarity and feasibility): the BVP solve that
+/// follows sets the final accuracy; this only has to land in its basin.
+pub const DIRECT_TOLERANCE: f64 = 1e-7;
+
+/// Iteration limit of the SQP.
+pub const DIRECT_MAX_ITERATIONS: usize = 300;
+
+/// The direct start of a problem: the warm start and what the SQP did.
+#[derive(Debug, Clone)]
+pub struct DirectStart {
+    /// `[Ω, ξ, ξ̇, κ = 0]` at the collocation points.
+    pub warm: WarmStart,
+    /// The SQP's iterations.
+    pub report: SqpReport,
+    /// The discrete cost of the direct minimum.
+    pub cost: f64,
+    /// `min |ξ|` over the collocation points.
+    pub min_xi: f64,
+    /// `b − a` of the direct minimum.
+    pub span: f64,
+}
+
+/// Why no direct start was built.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum DirectError {
+    /// The model's constraint value depends on ξ (the start condition is nonlinear).
+    #[error("the direct start needs a constraint value that does not depend on xi")]
+    Unsupported,
+    /// The projected segment or its singular control could not be built.
+    #[error("the start motion: {0}")]
+    Start(String),
+    /// The transcription could not be built.
+    #[error("the transcription: {0}")]
+    Transcription(#[from] ocp::TranscriptionError),
+    /// The SQP stopped.
+    #[error("the SQP stopped: {0}")]
+    Sqp(#[from] ocp::SqpError),
+}
+
+/// The direct start of `problem` on a uniform mesh of `intervals` intervals (module docs).
+pub fn direct_start<M: Model>(
+    problem: &Problem<M>,
+    intervals: usize,
+) -> Result<DirectStart, DirectError> {
+    if M::CONSTRAINT_VALUE_DEPENDS_ON_XI {
+        return Err(DirectError::Unsupported);
+    }
+    let n = M::DIM;
+    let span = problem.terminal.initial() - problem.t0;
+    let set = problem.level_set();
+    let segment = projected_segment(
+        &set,
+        &problem.omega_a,
+        &problem.omega_b,
+        problem.t0,
+        problem.t0 + span,
+        ENERGY_REL_TOL,
+    )
+    .map_err(|e| DirectError::Start(e.to_string()))?;
+    let ocp_problem = LieOcp::<M>::for_problem(problem);
+    let intervals = intervals.max(1);
+    let mesh: Vec<f64> = (0..=intervals)
+        .map(|k| k as f64 / intervals as f64)
+        .collect();
+    let tr = transcription_on(&ocp_problem, problem, mesh)?;
+    let params = problem.params();
+    let mut bad_time = None;
+    let v0 = tr.primal_from_fn(span, |t, z| {
+        with_buffer(6 * n, |buf| {
+            let (jet, xi) = buf.split_at_mut(4 * n);
+            segment.jet_into(t, jet);
+            M::singular_control(&jet[..3 * n], params, xi);
+            z[M::OMEGA].copy_from_slice(&jet[..n]);
+            z[M::XI.start..M::XIDOT.end].copy_from_slice(xi);
+        });
+        if !z.iter().all(|v| v.is_finite()) && bad_time.is_none() {
+            bad_time = Some(t);
+        }
+    });
+    if let Some(t) = bad_time {
+        return Err(DirectError::Start(format!(
+            "the projected segment's singular control is not defined at t = {t} (the segment \
+             is a free motion there)"
+        )));
+    }
+    // ξ̃ may pass through 0 along the segment, where ξ̃/|ξ̃| flips; the motion only sees ξ up
+    // to sign (λ is odd in ξ, λξ even), so the sign is chosen to keep ξ continuous.
+    let nz = LieOcp::<M>::NZ;
+    let mut v0 = v0;
+    let mut previous: Option<Vec<f64>> = None;
+    for z in v0.chunks_exact_mut(nz).take(tr.n_points()) {
+        if let Some(prev) = &previous {
+            let d: f64 = z[M::XI].iter().zip(prev).map(|(a, b)| a * b).sum();
+            if d < 0.0 {
+                z[M::XI.start..M::XIDOT.end]
+                    .iter_mut()
+                    .for_each(|v| *v = -*v);
+            }
+        }
+        previous = Some(z[M::XI].to_vec());
+    }
+    let options = SqpOptions {
+        tolerance: DIRECT_TOLERANCE,
+        max_iterations: DIRECT_MAX_ITERATIONS,
+        ..SqpOptions::default()
+    };
+    let (point, report) = ocp::sqp(&tr, v0, &options)?;
+    let t_len = tr.length(&point.v);
+    let mut times = Vec::with_capacity(tr.n_points());
+    let mut states = Vec::with_capacity(tr.n_points() * M::N_STATE);
+    let mut min_xi = f64::INFINITY;
+    for (p, z) in point.v.chunks_exact(nz).take(tr.n_points()).enumerate() {
+        times.push(tr.point_time(p, t_len));
+        let start = states.len();
+        states.extend_from_slice(z);
+        states.resize(start + M::N_STATE, 0.0); // κ = 0
+        min_xi = min_xi.min(z[M::XI].iter().map(|v| v * v).sum::<f64>().sqrt());
+    }
+    Ok(DirectStart {
+        warm: WarmStart { times, states },
+        cost: tr.objective(&point.v),
+        report,
+        min_xi,
+        span: t_len,
+    })
+}
