@@ -118,3 +118,27 @@ fn fast_199s_direct_minimum_is_singular_for_our_bvp() {
     let why = routes[0].stopped.as_deref().unwrap();
     assert!(why.contains("singular"), "{why}");
 }
+
+/// The direct start ([`suslov::lie::direct`]) on fast-199: the SQP from the projected
+/// segment needs feasibility restorations (its filter blocks every step more than once) and
+/// then converges to a regular minimum of the transcribed problem, |ξ| ≈ 1 and a cost of
+/// 2.0e-5 (IPOPT's minimum, on another transcription: 1.5e-5), where our BVP's Newton matrix
+/// is singular (above).
+#[test]
+fn fast_199s_direct_start_reaches_a_regular_minimum_after_restorations() {
+    use suslov::lie::direct::{direct_start, DirectGuess};
+    let loaded = suslov::config::load(&hard("fast_199_gamma_zero_singular.toml")).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let start = direct_start(&problem, 100, DirectGuess::Segment).expect("the SQP converges");
+    eprintln!(
+        "fast-199 direct: {} iterations, {} restorations, J = {:e}, min |xi| = {}",
+        start.report.iterations, start.report.restorations, start.cost, start.min_xi
+    );
+    assert!(start.report.restorations > 0);
+    assert!(start.min_xi > 0.99, "{}", start.min_xi);
+    assert!(start.cost > 1e-5 && start.cost < 3e-5, "{}", start.cost);
+    let residual = start.report.residual;
+    assert!(residual.relative_stationarity() <= suslov::lie::direct::DIRECT_TOLERANCE);
+    assert!(residual.feasibility <= suslov::lie::direct::DIRECT_TOLERANCE);
+    assert_eq!(start.warm.times.len(), 301);
+}

@@ -31,13 +31,15 @@ use crate::model::Model;
 use crate::ocp::{self, SqpOptions, SqpReport};
 
 use super::certify::{transcription_on, LieOcp};
-use super::path::{projected_segment, Path};
+use std::sync::Arc;
+
+use super::path::{projected_segment, EndBlend, Path, PathError, Projected};
 use super::problem::{with_buffer, Problem, ENERGY_REL_TOL};
 use super::solve::WarmStart;
 
 /// The tolerance of the SQP (relative stationarity and feasibility): the BVP solve that
 /// follows sets the final accuracy; this only has to land in its basin.
-pub const DIRECT_TOLERANCE: f64 = 1e-7;
+pub const DIRECT_TOLERANCE: f64 = 1e-6;
 
 /// Iteration limit of the SQP.
 pub const DIRECT_MAX_ITERATIONS: usize = 300;
@@ -74,26 +76,70 @@ pub enum DirectError {
     Sqp(#[from] ocp::SqpError),
 }
 
-/// The direct start of `problem` on a uniform mesh of `intervals` intervals (module docs).
+/// The motion the SQP starts from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectGuess {
+    /// The projected segment `Ω_a → Ω_b`.
+    Segment,
+    /// The desired path bent to `Ω_a` and `Ω_b` over the first and last quarter of `[a, b]`
+    /// and projected onto the level set.
+    Desired,
+}
+
+impl DirectGuess {
+    /// Words for messages.
+    pub fn describe(self) -> &'static str {
+        match self {
+            DirectGuess::Segment => "the projected segment",
+            DirectGuess::Desired => "the projected desired path",
+        }
+    }
+}
+
+/// The start motion of `guess` over `[a, a + span]`.
+fn guess_path<M: Model>(
+    problem: &Problem<M>,
+    guess: DirectGuess,
+    span: f64,
+) -> Result<Arc<dyn Path>, PathError> {
+    let (a, b) = (problem.t0, problem.t0 + span);
+    let set = problem.level_set();
+    Ok(match guess {
+        DirectGuess::Segment => Arc::new(projected_segment(
+            &set,
+            &problem.omega_a,
+            &problem.omega_b,
+            a,
+            b,
+            ENERGY_REL_TOL,
+        )?),
+        DirectGuess::Desired => {
+            let bent = EndBlend::new(
+                problem.desired.clone(),
+                (a, b),
+                &problem.omega_a,
+                &problem.omega_b,
+                0.25 * span,
+            )?;
+            Arc::new(Projected::new(Arc::new(bent), set)?)
+        }
+    })
+}
+
+/// The direct start of `problem` on a uniform mesh of `intervals` intervals, from the motion
+/// `guess` (module docs).
 pub fn direct_start<M: Model>(
     problem: &Problem<M>,
     intervals: usize,
+    guess: DirectGuess,
 ) -> Result<DirectStart, DirectError> {
     if M::CONSTRAINT_VALUE_DEPENDS_ON_XI {
         return Err(DirectError::Unsupported);
     }
     let n = M::DIM;
     let span = problem.terminal.initial() - problem.t0;
-    let set = problem.level_set();
-    let segment = projected_segment(
-        &set,
-        &problem.omega_a,
-        &problem.omega_b,
-        problem.t0,
-        problem.t0 + span,
-        ENERGY_REL_TOL,
-    )
-    .map_err(|e| DirectError::Start(e.to_string()))?;
+    let segment =
+        guess_path(problem, guess, span).map_err(|e| DirectError::Start(e.to_string()))?;
     let ocp_problem = LieOcp::<M>::for_problem(problem);
     let intervals = intervals.max(1);
     let mesh: Vec<f64> = (0..=intervals)
@@ -116,8 +162,9 @@ pub fn direct_start<M: Model>(
     });
     if let Some(t) = bad_time {
         return Err(DirectError::Start(format!(
-            "the projected segment's singular control is not defined at t = {t} (the segment \
-             is a free motion there)"
+            "the singular control of {} is not defined at t = {t} (it is a free motion \
+             there)",
+            guess.describe()
         )));
     }
     // ξ̃ may pass through 0 along the segment, where ξ̃/|ξ̃| flips; the motion only sees ξ up

@@ -1952,7 +1952,9 @@ fn direct_route<M: Model>(
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, String> {
     let intervals = options.initial_intervals.clamp(1, DIRECT_MAX_INTERVALS);
-    let start = super::direct::direct_start(problem, intervals).map_err(|e| e.to_string())?;
+    let start =
+        super::direct::direct_start(problem, intervals, super::direct::DirectGuess::Segment)
+            .map_err(|e| e.to_string())?;
     let sol = warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events).map_err(|e| {
         format!(
             "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.3}),              but the BVP from it stopped: {e}",

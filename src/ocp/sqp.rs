@@ -22,6 +22,11 @@
 //!    tried first, against the Maratos effect.
 //! 4. `v ← v + α d`, `y ← y + α (y⁺ − y)`.
 //!
+//! 5. When the filter blocks every step (the line search reaches
+//!    [`SqpOptions::min_step`]), a feasibility restoration: least-norm Gauss–Newton steps on
+//!    `c(v) = 0` alone until `‖c‖₁` has fallen tenfold, then a fresh filter (at most
+//!    ten times).
+//!
 //! It stops when the relative stationarity and the feasibility are both below
 //! [`SqpOptions::tolerance`], and with a reason when the line search fails, the
 //! regularization runs away, or the iteration limit is reached.
@@ -75,7 +80,9 @@ pub struct SqpReport {
     pub corrections: usize,
     /// The smallest accepted step length.
     pub smallest_step: f64,
-    /// Every iteration, in order.
+    /// Feasibility restorations (the filter blocked every step).
+    pub restorations: usize,
+    /// Every iteration that took a step, in order.
     pub history: Vec<SqpIterate>,
 }
 
@@ -170,6 +177,61 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
 
+/// Restorations allowed in one run of [`sqp`].
+const MAX_RESTORATIONS: usize = 10;
+
+/// Gauss–Newton steps of one restoration.
+const RESTORATION_STEPS: usize = 20;
+
+/// A restoration ends when it has reduced `‖c‖₁` by this factor.
+const RESTORATION_REDUCTION: f64 = 0.1;
+
+/// Least-norm Gauss–Newton steps `A d = −c` (backtracking on `‖c‖₁`) from `v` until `‖c‖₁`
+/// falls by [`RESTORATION_REDUCTION`] (or below `1e-10`); `None` when it does not.
+fn restore<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
+    v: &[f64],
+) -> Option<Vec<f64>> {
+    let nv = tr.n_var();
+    let positions: Vec<_> = tr
+        .lagrangian_hessian(v, &vec![0.0; tr.n_con()])
+        .into_iter()
+        .map(|(r, c, _)| (r, c, 0.0))
+        .collect();
+    let mut v = v.to_vec();
+    let mut c = tr.constraints(&v);
+    let theta_0 = norm_1(&c);
+    let done = |theta: f64| theta <= RESTORATION_REDUCTION * theta_0 || theta <= 1e-10;
+    for _ in 0..RESTORATION_STEPS {
+        let theta = norm_1(&c);
+        if done(theta) {
+            return Some(v);
+        }
+        let values = kkt.values_regularized(&vec![1.0; nv], &positions, &tr.jacobian(&v), 0.0);
+        let factor = kkt.factorize_unproven(&values).ok()?;
+        let mut rhs = vec![0.0; nv];
+        rhs.extend(c.iter().map(|x| -x));
+        factor.solve_in_place(&mut rhs).ok()?;
+        let mut alpha = 1.0;
+        loop {
+            let trial: Vec<f64> = v.iter().zip(&rhs).map(|(x, d)| x + alpha * d).collect();
+            let c_trial = tr.constraints(&trial);
+            let th = norm_1(&c_trial);
+            if th.is_finite() && th <= (1.0 - 1e-4 * alpha) * theta {
+                v = trial;
+                c = c_trial;
+                break;
+            }
+            alpha *= 0.5;
+            if alpha < 1e-8 {
+                return None;
+            }
+        }
+    }
+    done(norm_1(&c)).then_some(v)
+}
+
 /// Minimize the transcription's objective subject to its constraints from the primal point
 /// `v0` (see the module docs). Returns the KKT point and what the iterations did.
 pub fn sqp<P: OcpProblem + ?Sized>(
@@ -211,6 +273,7 @@ pub fn sqp<P: OcpProblem + ?Sized>(
         largest_regularization: 0.0,
         corrections: 0,
         smallest_step: 1.0,
+        restorations: 0,
         history: Vec::new(),
     };
     let mut filter: Vec<(f64, f64)> = Vec::new();
@@ -361,12 +424,7 @@ pub fn sqp<P: OcpProblem + ?Sized>(
             while accepted.is_none() {
                 alpha *= 0.5;
                 if alpha < opts.min_step {
-                    return Err(SqpError::LineSearch {
-                        iteration: report.iterations,
-                        step: alpha,
-                        stationarity: res.relative_stationarity(),
-                        feasibility: res.feasibility,
-                    });
+                    break;
                 }
                 let v = trial(d, alpha);
                 if let Some(f_type) = verdict(alpha, &v, &filter) {
@@ -374,7 +432,29 @@ pub fn sqp<P: OcpProblem + ?Sized>(
                 }
             }
         }
-        let (v, alpha, corrected, f_type) = accepted.expect("accepted or returned");
+        let Some((v, alpha, corrected, f_type)) = accepted else {
+            // 5. Feasibility restoration: the filter blocks every step. Move toward the
+            // constraints alone (least-norm Gauss–Newton steps), then start a fresh filter.
+            let restored = (report.restorations < MAX_RESTORATIONS)
+                .then(|| restore(tr, &kkt, &pt.v))
+                .flatten();
+            let Some(v) = restored else {
+                return Err(SqpError::LineSearch {
+                    iteration: report.iterations,
+                    step: alpha,
+                    stationarity: res.relative_stationarity(),
+                    feasibility: res.feasibility,
+                });
+            };
+            pt.y = least_squares_multipliers(tr, &kkt, &v).unwrap_or_else(|_| vec![0.0; nc]);
+            pt.v = v;
+            filter.clear();
+            theta_start = None;
+            damping = 0.0;
+            report.restorations += 1;
+            report.iterations += 1;
+            continue;
+        };
         if !f_type {
             filter.push(((1.0 - GAMMA_THETA) * theta, phi - GAMMA_PHI * theta));
         }
