@@ -42,7 +42,7 @@ use super::solve::WarmStart;
 pub const DIRECT_TOLERANCE: f64 = 1e-6;
 
 /// Iteration limit of the SQP.
-pub const DIRECT_MAX_ITERATIONS: usize = 300;
+pub const DIRECT_MAX_ITERATIONS: usize = 200;
 
 /// The direct start of a problem: the warm start and what the SQP did.
 #[derive(Debug, Clone)]

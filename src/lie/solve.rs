@@ -1675,8 +1675,11 @@ fn solve_cold<M: Model>(
     }
     // The direct start (fixed b): a minimum of the transcribed problem by SQP, from the
     // projected segment's inverse dynamics, as a warm start (super::direct).
-    // Not when the caller fixed the analytic start: that choice (and its errors) stays theirs.
+    // Not when the caller fixed the analytic start: that choice (and its errors) stays theirs;
+    // nor for the value-function scan's samples (`Evidence::None`), whose stops are only
+    // samples and would each pay for an SQP run.
     let direct = options.max_routes > 1
+        && evidence == Evidence::Collapse
         && options.start == StartStrategy::Auto
         && !options.stopped()
         && matches!(problem.terminal, TerminalTime::Fixed(_))
