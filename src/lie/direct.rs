@@ -10,8 +10,8 @@
 //! route stopped, and the BVP converges from them (`tests/missed_regular.rs`). A better
 //! *start* alone does not reach them (session 12's probe in `bench/README.md`): IPOPT gets
 //! there by its globalisation, which minimizes the cost rather than solving the optimality
-//! conditions. [`crate::ocp::sqp`] is that globalisation (inertia correction, an ℓ₁ merit
-//! function, a line search) on the problem's own transcription ([`super::certify::LieOcp`]:
+//! conditions. [`crate::ocp::sqp()`] is that globalisation (inertia correction, a filter line
+//! search, feasibility restoration) on the problem's own transcription ([`super::certify::LieOcp`]:
 //! state `[Ω, ξ]`, control `ξ̇`, every derivative generated from the model file).
 //!
 //! # What it does
@@ -19,7 +19,7 @@
 //! 1. The start: the motion along the projected segment `Ω_a → Ω_b` over `[a, b]` (the
 //!    problem's `b`, or its guess when `b` is free), driven by its unit singular control
 //!    (`ξ = ξ̃/|ξ̃|`, `ξ̃ = 𝕀Ω̇ − ad*_Ω 𝕀Ω`, [`Model::singular_control`]), on a uniform mesh.
-//! 2. [`crate::ocp::sqp`] at the problem's own weights, to [`DIRECT_TOLERANCE`].
+//! 2. [`crate::ocp::sqp()`] at the problem's own weights, to [`DIRECT_TOLERANCE`].
 //! 3. The result, `[Ω, ξ, ξ̇]` at every collocation point with the costate `κ = 0` (the
 //!    direct method has none; the BVP solve recovers it), is a [`WarmStart`] for
 //!    [`super::solve::solve_from`]'s single BVP solve.

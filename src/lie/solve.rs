@@ -1960,7 +1960,7 @@ fn direct_route<M: Model>(
             .map_err(|e| e.to_string())?;
     let sol = warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events).map_err(|e| {
         format!(
-            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.3}),              but the BVP from it stopped: {e}",
+            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.3}), but the BVP from it stopped: {e}",
             start.cost, start.min_xi
         )
     })?;

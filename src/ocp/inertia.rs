@@ -870,7 +870,7 @@ impl LbltFactor {
 
     /// [`LbltFactor::factorize`] without rejecting a factorization whose refinement
     /// contraction is large (its inertia is then not proven): for a method that only needs
-    /// steps, guarded by its own line search, such as [`super::sqp`]. A non-finite backward
+    /// steps, guarded by its own line search, such as [`mod@super::sqp`]. A non-finite backward
     /// error is still an error.
     pub fn factorize_unproven(
         pattern: &SymmetricPattern,

@@ -5,7 +5,7 @@
 //! - [`transcription`]: the NLP on a mesh (4-stage Lobatto IIIA, as the BVP solver).
 //! - [`kkt`]: KKT residuals, least-squares multipliers, Newton's method on the KKT system.
 //! - [`mod@certify`]: the second-order test (inertia of the KKT matrix) and its margin.
-//! - [`sqp`]: a globalized SQP method (inertia correction, ℓ₁ merit, line search): the
+//! - [`mod@sqp`]: a globalized SQP method (inertia correction, filter line search, restoration): the
 //!   direct method that finds a minimum from a rough start.
 //! - [`conjugate`]: the discrete conjugate point (where positivity is first lost in time).
 //! - [`inertia`]: inertia (numbers of positive, negative and zero eigenvalues) of sparse

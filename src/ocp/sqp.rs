@@ -7,29 +7,32 @@
 //!
 //! Iteration `k` at `(v, y)`:
 //!
-//! 1. **Inertia correction.** The KKT matrix `[[H + δ I, Aᵀ], [A, 0]]` (`H = ∇²ℒ(v, y)`) is
-//!    factorized with `δ = 0` first; when its inertia is not `(n_var, n_con, 0)` (the reduced
-//!    Hessian is not positive definite on the null space of `A`, or `A` loses rank) `δ` grows
-//!    from [`SqpOptions::first_regularization`] (or a third of the last one used) by a factor
-//!    of 8 until it is. The step then minimizes a convex quadratic model on the linearized
-//!    constraints: it is a descent direction of the merit function below.
-//! 2. **Step.** `[[H + δ I, Aᵀ], [A, 0]] [d; y⁺] = −[∇J; c]`.
-//! 3. **Merit and line search.** The exact ℓ₁ penalty `φ(v) = J(v) + ρ ‖c(v)‖₁`, with `ρ`
-//!    raised when needed so that its directional derivative along `d` is at most
-//!    `−½ dᵀ(H + δI)d − 0.3 ρ ‖c‖₁` (Nocedal & Wright, eq. 18.36). Backtracking by halves
-//!    until Armijo's condition holds; when the full step is rejected a second-order
-//!    correction (the same matrix, the constraint right-hand side `c(v) + c(v + d)`) is
-//!    tried first, against the Maratos effect.
-//! 4. `v ← v + α d`, `y ← y + α (y⁺ − y)`.
-//!
+//! 1. **Inertia correction.** The KKT matrix `[[H + δ I, Aᵀ], [A, −δ_c I]]`
+//!    (`H = ∇²ℒ(v, y)`) is factorized with `δ` = the current damping (0 at first, item 4);
+//!    when its inertia is not `(n_var, n_con, 0)` (the reduced Hessian is not positive
+//!    definite on the null space of `A`) `δ` grows from [`SqpOptions::first_regularization`]
+//!    (or a third of the last one used) by a factor of 8 until it is; zero eigenvalues (`A`
+//!    loses rank) first switch on `δ_c = 1e-8`. The step then minimizes a convex quadratic
+//!    model on the linearized constraints. The factorization's inertia is not proven here
+//!    ([`super::inertia::LbltFactor::factorize_unproven`]): the line search guards the step.
+//! 2. **Step.** `[[H + δ I, Aᵀ], [A, −δ_c I]] [d; y⁺] = −[∇J; c]`.
+//! 3. **Filter line search** (Wächter & Biegler 2006): a trial point is accepted when no
+//!    earlier pair `(‖c‖₁, J)` of the filter dominates it and it reduces either `‖c‖₁` or `J`
+//!    enough (Armijo's condition on `J` when the point is nearly feasible and `d` descends);
+//!    backtracking by halves, and when the full step is rejected a second-order correction
+//!    (the same matrix, the constraint right-hand side `c(v) + c(v + d)`) is tried first,
+//!    against the Maratos effect.
+//! 4. `v ← v + α d`, `y ← y + α (y⁺ − y)`. A short step (`α < 1/4`) raises the damping `δ` of
+//!    the next iteration tenfold (a Levenberg–Marquardt term: the model is poor that far); a
+//!    full step lowers it tenfold.
 //! 5. When the filter blocks every step (the line search reaches
 //!    [`SqpOptions::min_step`]), a feasibility restoration: least-norm Gauss–Newton steps on
 //!    `c(v) = 0` alone until `‖c‖₁` has fallen tenfold, then a fresh filter (at most
 //!    ten times).
 //!
 //! It stops when the relative stationarity and the feasibility are both below
-//! [`SqpOptions::tolerance`], and with a reason when the line search fails, the
-//! regularization runs away, or the iteration limit is reached.
+//! [`SqpOptions::tolerance`], and with a reason when the line search and restoration fail,
+//! the regularization runs away, or the iteration limit is reached.
 
 use super::inertia::{Inertia, InertiaError, LbltFactor};
 use super::kkt::{least_squares_multipliers, KktMatrix, KktPoint, KktResidual};
@@ -125,10 +128,12 @@ pub enum SqpError {
     /// The start is not a point where the problem is defined.
     #[error("the objective, constraints or derivatives are not finite at the start")]
     NonFiniteStart,
-    /// The line search found no decrease of the merit function.
+    /// The filter rejected every step down to the smallest step length, and a feasibility
+    /// restoration did not help (or the restorations were used up).
     #[error(
-        "iteration {iteration}: the line search found no decrease of the merit function down \
-         to step {step:.1e} (stationarity {stationarity:.2e}, feasibility {feasibility:.2e})"
+        "iteration {iteration}: the line search found no step the filter accepts down to step \
+         {step:.1e}, and no feasibility restoration helped (stationarity {stationarity:.2e}, \
+         feasibility {feasibility:.2e})"
     )]
     LineSearch {
         /// The iteration.
