@@ -142,3 +142,29 @@ fn fast_199s_direct_start_reaches_a_regular_minimum_after_restorations() {
     assert!(residual.feasibility <= suslov::lie::direct::DIRECT_TOLERANCE);
     assert_eq!(start.warm.times.len(), 301);
 }
+
+/// fast-119 from its problem file alone, default settings: every continuation route stops,
+/// the direct start on 100 intervals finds only a collapsed minimum (min |ξ| 0.001), and its
+/// retry on 200 intervals finds the regular one, which the BVP takes up: verified, at IPOPT's
+/// cost, |ξ| near 1.
+#[test]
+fn fast_119_is_solved_by_the_direct_start_on_the_finer_mesh() {
+    use suslov::lie::solve::DIRECT_START_ROUTE;
+    let loaded = suslov::config::load(&hard("fast_119_missed_regular.toml")).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let last = sol.routes.last().unwrap();
+    assert_eq!(
+        (last.route, last.stopped.as_deref()),
+        (DIRECT_START_ROUTE, None)
+    );
+    let verified = lie::verify_solution(&sol);
+    assert!(
+        verified.verification.passed(),
+        "{:?}",
+        verified.verification
+    );
+    let cost = verified.diagnostics.cost;
+    assert!(((cost - 114.8380278) / 114.8380278).abs() < 1e-6, "{cost}");
+    assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
+}
