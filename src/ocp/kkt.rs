@@ -116,19 +116,7 @@ impl KktMatrix {
         tr: &Transcription<'_, P>,
         v: &[f64],
     ) -> Result<Self, KktError> {
-        let (nv, nc) = (tr.n_var(), tr.n_con());
-        let y = vec![0.0; nc];
-        let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        entries.extend(tr.lagrangian_hessian(v, &y).iter().map(|&(r, c, _)| (r, c)));
-        entries.extend(tr.jacobian(v).iter().map(|&(r, c, _)| (nv + r, c)));
-        let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
-        Ok(Self {
-            pattern,
-            entries,
-            n_var: nv,
-            n_con: nc,
-            constraint_diagonal: false,
-        })
+        Self::build(tr, v, false)
     }
 
     /// [`KktMatrix::new`] with a diagonal in the constraint block too, for the matrices
@@ -138,22 +126,29 @@ impl KktMatrix {
         tr: &Transcription<'_, P>,
         v: &[f64],
     ) -> Result<Self, KktError> {
+        Self::build(tr, v, true)
+    }
+
+    fn build<P: OcpProblem + ?Sized>(
+        tr: &Transcription<'_, P>,
+        v: &[f64],
+        constraint_diagonal: bool,
+    ) -> Result<Self, KktError> {
         let (nv, nc) = (tr.n_var(), tr.n_con());
+        let y = vec![0.0; nc];
         let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        entries.extend(
-            tr.lagrangian_hessian(v, &vec![0.0; nc])
-                .iter()
-                .map(|&(r, c, _)| (r, c)),
-        );
+        entries.extend(tr.lagrangian_hessian(v, &y).iter().map(|&(r, c, _)| (r, c)));
         entries.extend(tr.jacobian(v).iter().map(|&(r, c, _)| (nv + r, c)));
-        entries.extend((nv..nv + nc).map(|i| (i, i)));
+        if constraint_diagonal {
+            entries.extend((nv..nv + nc).map(|i| (i, i)));
+        }
         let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
         Ok(Self {
             pattern,
             entries,
             n_var: nv,
             n_con: nc,
-            constraint_diagonal: true,
+            constraint_diagonal,
         })
     }
 
