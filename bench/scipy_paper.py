@@ -113,7 +113,7 @@ import generate as G  # noqa: E402  (checks the pinned sympy; exit status 3 othe
 import model as MODEL  # noqa: E402
 
 # ---------------------------------------------------------------------------------------------
-# The paper's data (src/suslov/paper.rs, desired.rs, problem.rs CostWeights::paper)
+# The paper's data (src/so3/paper.rs, desired.rs, problem.rs CostWeights::paper)
 
 INERTIA = np.array([1.0, 2.0, 3.0])
 OMEGA_A = np.array([5.0, 0.0, 0.0])  # phi(0)/2

@@ -18,7 +18,7 @@ use suslov::ivp::{integrate, IvpOptions};
 use suslov::lie::verify::{reintegrate_difference, reintegrate_windowed, rotation_windows};
 use suslov::model::generated::So3;
 use suslov::model::Model;
-use suslov::suslov::solve::{solve, SolveOptions};
+use suslov::so3::solve::{solve, SolveOptions};
 
 fn norm(v: &[f64]) -> f64 {
     v.iter().map(|x| x * x).sum::<f64>().sqrt()

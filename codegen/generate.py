@@ -370,7 +370,7 @@ def build_functions(opt):
         "inertia parameters in p (symmetric positive definite for admissible parameters).",
         prog, [p_arg], [Out("out", M.INERTIA, "matrix", "I, `out[i][j]` = I_ij")]))
 
-    # ---- the singular solution's jet (section 5.1), for src/suslov/singular.rs ------------
+    # ---- the singular solution's jet (section 5.1), for src/so3/singular.rs ------------
     # xi~ = I Omega_p' - ad*_Omega_p (I Omega_p), lambda = |xi~|, xi_p = xi~/lambda and their
     # first two time derivatives; the second needs Omega_p''' (OmDDDot: not in the model's
     # jet, so a copy of the jet with it is used here).

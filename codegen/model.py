@@ -34,7 +34,7 @@ import sympy as sp
 HERE = os.path.dirname(os.path.abspath(__file__))
 MODELS_DIR = os.path.join(HERE, "models")
 
-# Homotopy roles of a weight (how the solver reaches its target value; see src/suslov/solve.rs).
+# Homotopy roles of a weight (how the solver reaches its target value; see src/so3/solve.rs).
 ROLES = {
     "fixed": "used at its target value from the start",
     "beta": "control effort: the start uses a small beta_m, then continued to the target",

@@ -41,10 +41,10 @@ use crate::report::{
     self, CaseStatus, CaseSummary, CertificateReport, FigureFormat, FigureOptions, OutputDir,
     ReportError, StabilityRun, StageSummary, StatusCode, Summary, TrajectoryTable,
 };
-use crate::suslov::paper;
-use crate::suslov::problem::SuslovProblem;
-use crate::suslov::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
-use crate::suslov::stability::{stability_runs, PERTURBATION};
+use crate::so3::paper;
+use crate::so3::problem::SuslovProblem;
+use crate::so3::solve::{self, Event, SolveError, SolveOptions, SuslovSolution};
+use crate::so3::stability::{stability_runs, PERTURBATION};
 
 /// Uniform points of the output grid (trajectory.csv and figures) unless `--points` says
 /// otherwise; the mesh nodes are added to them ([`output_times`]).
@@ -861,7 +861,7 @@ pub fn run_rank_along_any(
 
 /// `--points` (times along the trajectory) and `--rtol` of the rank test along a solution.
 fn check_rank_arguments(points: usize, rtol: f64) -> Result<(), AppError> {
-    use crate::suslov::controllability as c;
+    use crate::so3::controllability as c;
     if !(2..=c::MAX_STATES).contains(&points) {
         return Err(AppError::InvalidArgument(format!(
             "--points must be between 2 and {} (times sampled along the trajectory), got \
@@ -874,7 +874,7 @@ fn check_rank_arguments(points: usize, rtol: f64) -> Result<(), AppError> {
 }
 
 /// `suslov controllability --along paper|CONFIG`: solve each case and evaluate the
-/// accessibility rank test ([`crate::suslov::controllability`]) at `points` times along the
+/// accessibility rank test ([`crate::so3::controllability`]) at `points` times along the
 /// optimal trajectory. Checks `points` and `rtol` before any work.
 pub fn run_rank_along(
     jobs: &[CaseJob],
@@ -882,7 +882,7 @@ pub fn run_rank_along(
     rtol: f64,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<RankAlong, AppError> {
-    use crate::suslov::controllability as c;
+    use crate::so3::controllability as c;
     check_rank_arguments(points, rtol)?;
     let mut text = String::new();
     let mut cases = Vec::new();
@@ -1032,7 +1032,7 @@ pub struct RankTable {
     /// The table for people.
     pub text: String,
     /// What the rows show.
-    pub verdict: crate::suslov::controllability::AccessibilityVerdict,
+    pub verdict: crate::so3::controllability::AccessibilityVerdict,
     /// The same as data (`--json`): `model`, `rtol`, `dim_m`, `states` (one record per state
     /// tested) and `verdict`.
     pub json: serde_json::Value,
@@ -1062,7 +1062,7 @@ pub struct RankAtStates<'a> {
 }
 
 /// `suslov controllability` at one state or at sampled states of `M`, for any model: so3
-/// through the so(3) layer ([`crate::suslov::controllability::report_table`], the paper's
+/// through the so(3) layer ([`crate::so3::controllability::report_table`], the paper's
 /// table), the other models through the generic layer ([`lie::run_model_rank_at_states`]).
 /// Every argument is checked (named in the error) before any work; returns the table and its
 /// verdict.
@@ -1082,11 +1082,10 @@ pub fn run_rank_at_states(a: &RankAtStates) -> Result<RankTable, AppError> {
 
 /// [`run_rank_at_states`] for so3: `--inertia` as `I1,I2,I3` (or named), no `--constraint`.
 fn run_so3_rank_at_states(a: &RankAtStates) -> Result<RankTable, AppError> {
-    use crate::suslov::controllability as c;
-    use crate::suslov::Inertia;
-    let arg = |flag: &str, e: crate::suslov::SuslovError| {
-        AppError::InvalidArgument(format!("{flag}: {e}"))
-    };
+    use crate::so3::controllability as c;
+    use crate::so3::Inertia;
+    let arg =
+        |flag: &str, e: crate::so3::SuslovError| AppError::InvalidArgument(format!("{flag}: {e}"));
     let vec3 = |flag: &str, text: &str| -> Result<nalgebra::Vector3<f64>, AppError> {
         let v = c::parse_vec3(text).map_err(|e| arg(flag, e))?;
         if v.iter().all(|x| x.is_finite()) {

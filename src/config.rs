@@ -96,15 +96,15 @@ use serde::de::{self, Deserializer, SeqAccess, Visitor};
 use serde::Deserialize;
 
 use crate::model::generated::DIM;
-use crate::suslov::desired::{
+use crate::so3::desired::{
     Constant, DesiredPath, PaperSpiral, Projected, ProjectedPath, ProjectedSegment, SampledPath,
 };
-use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
-use crate::suslov::problem::{
+use crate::so3::ellipsoid::{EnergyEllipsoid, Inertia};
+use crate::so3::problem::{
     CostWeights, ProblemError, SuslovProblem, TerminalTime, ENERGY_REL_TOL, N_INERTIA,
 };
-use crate::suslov::solve::{SolveOptions, StartStrategy};
-use crate::suslov::SuslovError;
+use crate::so3::solve::{SolveOptions, StartStrategy};
+use crate::so3::SuslovError;
 
 pub mod generic;
 pub mod resolved;
@@ -2500,7 +2500,7 @@ impl ProblemFile {
                     .map(|t| finite("desired.end_time", t))
                     .transpose()?;
                 let path = ProjectedPath {
-                    inner: Arc::new(crate::suslov::desired::FromLiePath(Arc::new(expression))),
+                    inner: Arc::new(crate::so3::desired::FromLiePath(Arc::new(expression))),
                     ellipsoid: *ellipsoid,
                 };
                 // Without an end time there is no end point: "desired_end" says so (NaN is

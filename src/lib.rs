@@ -14,10 +14,10 @@
 //!   second-order (local minimum) certificate.
 //! - [`ivp`]: adaptive high-order IVP integration, for a-posteriori checks.
 //! - [`reconstruct`]: the group motion `ġ = g Ω̂` on any matrix Lie group (4th-order Magnus).
-//! - [`suslov`](mod@suslov): the problem layer (problem data and validation, desired paths with
+//! - [`so3`](mod@so3): the problem layer (problem data and validation, desired paths with
 //!   exact derivatives, the analytic singular start, the staged homotopy of the paper's
 //!   section 5.2, the paper's stability experiment).
-//! - [`report`]: outputs (CSV, JSON, figures, atomic writes); [`app`]: the command-line jobs.
+//! - [`report`]: outputs (CSV, JSON, figures, atomic writes).
 //!
 //! # Example: the paper's η = 0.01 case
 //!
@@ -40,7 +40,7 @@
 //! // On an array of times:
 //! let rows = solution.states_at(&[0.0, 2.5, solution.terminal_time()]);
 //! assert_eq!(rows.len(), 3);
-//! # Ok::<(), suslov::suslov::solve::SolveError>(())
+//! # Ok::<(), suslov::so3::solve::SolveError>(())
 //! ```
 //!
 //! # Example: your own problem
@@ -51,7 +51,7 @@
 //! ```
 //! use std::sync::Arc;
 //! use nalgebra::Vector3;
-//! use suslov::suslov::{EnergyEllipsoid, Inertia, ProjectedSegment};
+//! use suslov::so3::{EnergyEllipsoid, Inertia, ProjectedSegment};
 //! use suslov::{solve, CostWeights, SolveOptions, SuslovProblem, TerminalTime};
 //!
 //! let inertia = Inertia::new([1.0, 1.5, 2.5])?;
@@ -104,12 +104,15 @@
 //!
 //! # What is API and what is the command line's
 //!
-//! The API: [`solve`] and [`SuslovProblem`] (so(3), the paper's model), [`lie::solve()`] and
-//! [`lie::Problem`] (any generated model), the solutions' `cost`, `state`, `states_at` and
-//! `verify`, [`config`] to read problem files, [`lie::certify`] and [`lie::controllability`]. [`app`] and
-//! [`report`] are the command line's jobs and outputs (public so that tests and benchmarks run
-//! exactly what the command line runs).
+//! The API: [`solve`] and [`SuslovProblem`] (so(3), the paper's model; the rest of its
+//! layer in [`so3`](mod@so3)), [`lie::solve()`] and [`lie::Problem`] (any generated model),
+//! the solutions' `cost`, `state`, `states_at` and `verify`, [`config`] to read problem
+//! files, [`lie::certify`] and [`lie::controllability`], and [`report`] to write what the
+//! command line writes. The command line's jobs (`app`) are public only so that tests and
+//! benchmarks run exactly what the command line runs; they are not API and not documented
+//! here.
 
+#[doc(hidden)]
 pub mod app;
 pub mod bvp;
 pub mod config;
@@ -121,8 +124,8 @@ pub mod model;
 pub mod ocp;
 pub mod reconstruct;
 pub mod report;
-pub mod suslov;
+pub mod so3;
 
-pub use suslov::paper;
-pub use suslov::problem::{CostWeights, ProblemError, SuslovProblem, TerminalTime};
-pub use suslov::solve::{solve, SolveError, SolveOptions, SuslovSolution};
+pub use so3::paper;
+pub use so3::problem::{CostWeights, ProblemError, SuslovProblem, TerminalTime};
+pub use so3::solve::{solve, SolveError, SolveOptions, SuslovSolution};

@@ -21,8 +21,8 @@ use clap::{Parser, Subcommand};
 use indicatif::{ProgressBar, ProgressStyle};
 use suslov::app::{self, AppEvent};
 use suslov::report::significant;
-use suslov::suslov::controllability::AccessibilityVerdict;
-use suslov::suslov::solve::Event;
+use suslov::so3::controllability::AccessibilityVerdict;
+use suslov::so3::solve::Event;
 
 #[derive(Parser)]
 #[command(
@@ -132,7 +132,7 @@ struct ControllabilityArgs {
     #[arg(long, default_value_t = 1)]
     seed: u64,
     /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1; in [1e-14, 1e-3].
-    #[arg(long, allow_hyphen_values = true, default_value_t = suslov::suslov::controllability::RANK_RTOL)]
+    #[arg(long, allow_hyphen_values = true, default_value_t = suslov::so3::controllability::RANK_RTOL)]
     rtol: f64,
     /// Instead: solve `paper` (both cases) or a problem file and evaluate the rank along the
     /// optimal trajectory (Omega(t), xi(t)) at --points times.

@@ -417,7 +417,7 @@ fn segment_paths_check_their_end_points() {
     let p = config::from_toml_str(&format!("{free}interval = [0.0, 3.0]\n")).unwrap();
     assert_eq!(
         p.problem.terminal,
-        suslov::suslov::problem::TerminalTime::Free { guess: 3.0 }
+        suslov::so3::problem::TerminalTime::Free { guess: 3.0 }
     );
 }
 
@@ -527,13 +527,13 @@ fn an_energy_level_that_overflows_is_an_error_not_a_panic() {
     );
     assert_contains(&msg, &["0e0", "rescale"]);
     // The library's own check (it used to panic in `ellipsoid()`).
-    let mut p = suslov::suslov::paper::problem(1.0);
+    let mut p = suslov::so3::paper::problem(1.0);
     p.omega_a = nalgebra::Vector3::new(1e200, 0.0, 0.0);
     let e = p.validate().unwrap_err();
     assert!(
         matches!(
             e,
-            suslov::suslov::problem::ProblemError::EnergyOutOfRange { .. }
+            suslov::so3::problem::ProblemError::EnergyOutOfRange { .. }
         ),
         "{e}"
     );
@@ -569,7 +569,7 @@ fn samples_files_are_checked_line_by_line() {
     assert!((p.problem.desired.value(0.0) - p.problem.omega_a).norm() < 1e-14);
     assert_eq!(
         p.problem.terminal,
-        suslov::suslov::problem::TerminalTime::Free { guess: 10.0 }
+        suslov::so3::problem::TerminalTime::Free { guess: 10.0 }
     );
     assert!(
         p.problem
@@ -653,10 +653,7 @@ fn the_start_override_is_parsed_and_checked() {
         }
     };
     let ok = suslov::config::from_toml_str(&with_start("\"segment\"")).expect("valid start");
-    assert_eq!(
-        ok.options.start,
-        suslov::suslov::solve::StartStrategy::Segment
-    );
+    assert_eq!(ok.options.start, suslov::so3::solve::StartStrategy::Segment);
     let err =
         suslov::config::from_toml_str(&with_start("\"sideways\"")).expect_err("unknown start");
     let msg = err.to_string();

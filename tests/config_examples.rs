@@ -1,11 +1,11 @@
 //! The problem files in `examples/` load and validate, the paper's two reproduce
-//! `suslov::suslov::paper::problem`, and one small example solves end to end through the
+//! `suslov::so3::paper::problem`, and one small example solves end to end through the
 //! command line.
 
 use std::path::{Path, PathBuf};
 
 use suslov::config;
-use suslov::suslov::paper;
+use suslov::so3::paper;
 
 fn examples() -> Vec<PathBuf> {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
@@ -85,7 +85,7 @@ fn the_paper_examples_are_the_papers_problems() {
             assert_eq!(p.desired.jet(t), q.desired.jet(t), "t = {t}");
         }
         let o = &loaded.options;
-        let d = suslov::suslov::solve::SolveOptions::default();
+        let d = suslov::so3::solve::SolveOptions::default();
         assert_eq!(
             (
                 o.tol,

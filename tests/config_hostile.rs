@@ -487,8 +487,8 @@ fn mismatch_of(p: &config::LoadedProblem) -> f64 {
 #[test]
 fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start() {
     let off = nalgebra::Vector3::new(1.00000000025, 2.0000000005, 0.0);
-    let e = suslov::suslov::EnergyEllipsoid::through(
-        suslov::suslov::Inertia::paper(),
+    let e = suslov::so3::EnergyEllipsoid::through(
+        suslov::so3::Inertia::paper(),
         &nalgebra::Vector3::new(3.0, 0.0, 0.0),
     )
     .unwrap();
@@ -519,7 +519,7 @@ fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start(
         );
     let p = config::from_toml_str(&doc).unwrap();
     let clock = Instant::now();
-    let sol = suslov::suslov::solve::solve(&p.problem, &p.options, &mut |_| {}).unwrap();
+    let sol = suslov::so3::solve::solve(&p.problem, &p.options, &mut |_| {}).unwrap();
     assert!(clock.elapsed() < Duration::from_secs(20));
     assert_eq!(sol.generic.start.case, 1);
     let end = nalgebra::Vector3::from_column_slice(
@@ -530,10 +530,10 @@ fn omega_b_within_the_energy_tolerance_goes_through_config_and_builds_the_start(
 
 #[test]
 fn a_problem_built_in_code_with_omega_b_within_the_tolerance_builds_the_segment_start() {
-    use suslov::suslov::problem::{CostWeights, SuslovProblem, TerminalTime};
+    use suslov::so3::problem::{CostWeights, SuslovProblem, TerminalTime};
     let off = nalgebra::Vector3::new(1.00000000025, 2.0000000005, 0.0);
     let problem = SuslovProblem {
-        inertia: suslov::suslov::Inertia::paper(),
+        inertia: suslov::so3::Inertia::paper(),
         weights: CostWeights {
             alpha: 1.0,
             beta: 0.1,
@@ -545,12 +545,10 @@ fn a_problem_built_in_code_with_omega_b_within_the_tolerance_builds_the_segment_
         omega_a: nalgebra::Vector3::new(3.0, 0.0, 0.0),
         omega_b: off,
         terminal: TerminalTime::Fixed(4.0),
-        desired: std::sync::Arc::new(suslov::suslov::Constant(nalgebra::Vector3::new(
-            3.0, 0.0, 0.0,
-        ))),
+        desired: std::sync::Arc::new(suslov::so3::Constant(nalgebra::Vector3::new(3.0, 0.0, 0.0))),
     };
     problem.validate().unwrap();
-    let sol = suslov::suslov::solve::solve(&problem, &Default::default(), &mut |_| {}).unwrap();
+    let sol = suslov::so3::solve::solve(&problem, &Default::default(), &mut |_| {}).unwrap();
     assert_eq!(sol.generic.start.omega_p, "projected segment");
 }
 
@@ -716,11 +714,11 @@ fn an_energy_level_in_the_subnormal_range_is_rejected() {
         );
     let (_, msg) = error(&doc, "boundary.omega_a");
     assert_contains(&msg, &["kinetic energy", "rescale"]);
-    let mut p = suslov::suslov::paper::problem(1.0);
+    let mut p = suslov::so3::paper::problem(1.0);
     p.omega_a = nalgebra::Vector3::new(1e-160, 0.0, 0.0);
     assert!(matches!(
         p.validate(),
-        Err(suslov::suslov::problem::ProblemError::EnergyOutOfRange { .. })
+        Err(suslov::so3::problem::ProblemError::EnergyOutOfRange { .. })
     ));
 }
 

@@ -244,7 +244,7 @@ fn every_model_has_rank_dim_m_at_sampled_states_and_moves_a_state_onto_the_level
             assert_eq!(json["states"].as_array().map(Vec::len), Some(8), "{name}");
             assert_eq!(
                 verdict,
-                suslov::suslov::controllability::AccessibilityVerdict::Accessible { on_m: 8 },
+                suslov::so3::controllability::AccessibilityVerdict::Accessible { on_m: 8 },
                 "{name}: {text}"
             );
         });
@@ -255,8 +255,8 @@ fn every_model_has_rank_dim_m_at_sampled_states_and_moves_a_state_onto_the_level
 fn the_generic_test_on_so3_equals_the_so3_layer() {
     use nalgebra::Vector3;
     use suslov::model::so3::So3;
-    use suslov::suslov::controllability::{rank_report, sample_states_on_m, RANK_RTOL};
-    use suslov::suslov::Inertia;
+    use suslov::so3::controllability::{rank_report, sample_states_on_m, RANK_RTOL};
+    use suslov::so3::Inertia;
     let mut worst: f64 = 0.0;
     let mut count = 0;
     for (diag, seed) in [

@@ -6,7 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use suslov::config::{self, ConfigError, Loaded};
-use suslov::suslov::desired::DesiredPath;
+use suslov::so3::desired::DesiredPath;
 
 fn examples() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("examples")
@@ -40,7 +40,7 @@ fn a_formula_path_has_the_exact_jet_of_the_same_path_in_code() {
         "\"desired_end\"",
     );
     let loaded = config::from_toml_str(&text).unwrap();
-    let spiral = suslov::suslov::desired::PaperSpiral::paper();
+    let spiral = suslov::so3::desired::PaperSpiral::paper();
     let reference = spiral.phi_par();
     let mut worst: f64 = 0.0;
     for k in 0..=40 {

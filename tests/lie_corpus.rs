@@ -23,9 +23,9 @@ use nalgebra::Vector3;
 use suslov::lie::path::{projected_segment, LevelSet, Segment};
 use suslov::lie::{self, LieSolveError, Problem};
 use suslov::model::Model;
-use suslov::suslov::problem::{CostWeights, SuslovProblem, TerminalTime, ENERGY_REL_TOL};
-use suslov::suslov::solve::{self, SolveError, SolveOptions};
-use suslov::suslov::{Inertia, ProjectedSegment};
+use suslov::so3::problem::{CostWeights, SuslovProblem, TerminalTime, ENERGY_REL_TOL};
+use suslov::so3::solve::{self, SolveError, SolveOptions};
+use suslov::so3::{Inertia, ProjectedSegment};
 
 struct Rng(u64);
 impl Rng {

@@ -13,7 +13,7 @@ use suslov::lie::{self, LieBvp, Problem};
 use suslov::model::so3::So3;
 use suslov::model::so3_inhomogeneous::So3Inhomogeneous;
 use suslov::model::Model;
-use suslov::suslov::solve::SolveOptions;
+use suslov::so3::solve::SolveOptions;
 
 mod paper_lie;
 use paper_lie::paper_problem;

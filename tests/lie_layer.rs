@@ -10,9 +10,9 @@ use std::sync::Arc;
 use suslov::lie::{self, Problem};
 use suslov::model::so3::So3;
 use suslov::model::Model;
-use suslov::suslov::paper;
-use suslov::suslov::problem::TerminalTime;
-use suslov::suslov::solve::SolveOptions;
+use suslov::so3::paper;
+use suslov::so3::problem::TerminalTime;
+use suslov::so3::solve::SolveOptions;
 
 mod paper_lie;
 use paper_lie::So3Path;
@@ -502,7 +502,7 @@ fn every_so3_example_solves_the_same_in_both_layers() {
         let Loaded::So3(loaded) = load_any(&path).unwrap().0 else {
             continue;
         };
-        let old = suslov::suslov::solve::solve(&loaded.problem, &loaded.options, &mut |_| {});
+        let old = suslov::so3::solve::solve(&loaded.problem, &loaded.options, &mut |_| {});
         let generic = loaded.problem.to_generic().expect("valid in both layers");
         let new = lie::solve(&generic, &loaded.options, &mut |_| {});
         let (old, new) = match (old, new) {

@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 
 use suslov::lie::{self, solve::WARM_START_ROUTE, LieSolveError, WarmStart};
 use suslov::model::generated as so3;
-use suslov::suslov::solve::SolveOptions;
+use suslov::so3::solve::SolveOptions;
 
 fn hard(file: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR"))

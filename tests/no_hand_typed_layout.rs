@@ -166,9 +166,9 @@ fn no_hand_typed_layout_in_the_model_specific_code() {
     rust_files(&root.join("src"), root, &mut files);
     // The scan covers the problem layer (a wrong root would pass vacuously).
     for expected in [
-        "src/suslov/problem.rs",
-        "src/suslov/solve.rs",
-        "src/suslov/stability.rs",
+        "src/so3/problem.rs",
+        "src/so3/solve.rs",
+        "src/so3/stability.rs",
         "src/lie/certify.rs",
         "src/app.rs",
         "src/report/csv.rs",

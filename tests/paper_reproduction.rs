@@ -2,10 +2,10 @@
 //! the analytic singular solution through the staged homotopy, then verified a posteriori.
 
 use suslov::lie::verify::{diagnose, reintegrate_difference};
-use suslov::suslov::paper;
-use suslov::suslov::solve::{solve, SolveOptions, SuslovSolution};
+use suslov::so3::paper;
+use suslov::so3::solve::{solve, SolveOptions, SuslovSolution};
 
-fn solve_quietly(problem: &suslov::suslov::problem::SuslovProblem) -> SuslovSolution {
+fn solve_quietly(problem: &suslov::so3::problem::SuslovProblem) -> SuslovSolution {
     solve(problem, &SolveOptions::default(), &mut |_| {}).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -71,7 +71,7 @@ fn solves_a_fixed_terminal_time_case() {
 /// additive 1e-3 by 2.0 / 0.76; ξ itself moves by at most the integrated perturbation.
 #[test]
 fn the_stability_experiment_gives_the_readme_numbers() {
-    use suslov::suslov::stability::{stability_runs, PERTURBATION};
+    use suslov::so3::stability::{stability_runs, PERTURBATION};
     for (eta, modulated, additive) in [(1.0, 0.029, 2.02), (0.01, 0.0036, 0.764)] {
         let sol = solve_quietly(&paper::problem(eta));
         let runs = stability_runs(&sol).expect("the re-integrations run");

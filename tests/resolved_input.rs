@@ -201,12 +201,10 @@ kind = "paper-spiral"
 
 #[test]
 fn the_paper_cases_resolve_to_the_paper_problem() {
-    for case in &suslov::suslov::paper::CASES {
+    for case in &suslov::so3::paper::CASES {
         let r = config::resolved::paper_case(case);
         let l = config::from_toml_str(&r.toml_text("test")).unwrap();
-        let expected = suslov::suslov::paper::problem(case.eta)
-            .to_generic()
-            .unwrap();
+        let expected = suslov::so3::paper::problem(case.eta).to_generic().unwrap();
         let got = l.problem.to_generic().unwrap();
         assert_eq!(
             fingerprint(&got, &l.options),

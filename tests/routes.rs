@@ -5,7 +5,7 @@
 use std::path::Path;
 
 use suslov::lie::{self, LieSolveError};
-use suslov::suslov::solve::SolveOptions;
+use suslov::so3::solve::SolveOptions;
 
 /// `(route, solved)` of every route `sol` lists, in order.
 fn solved_by<M: suslov::model::Model>(sol: &lie::LieSolution<M>) -> Vec<(&'static str, bool)> {

@@ -2,10 +2,10 @@
 //! `paper` job writes complete, parseable outputs.
 
 use nalgebra::Vector3;
-use suslov::suslov::paper;
-use suslov::suslov::problem::{ProblemError, TerminalTime};
+use suslov::so3::paper;
+use suslov::so3::problem::{ProblemError, TerminalTime};
 
-fn message(p: &suslov::suslov::problem::SuslovProblem) -> String {
+fn message(p: &suslov::so3::problem::SuslovProblem) -> String {
     p.validate().expect_err("invalid").to_string()
 }
 
@@ -31,12 +31,12 @@ fn singular_weights_are_rejected_with_the_reason() {
     for (field, set) in [
         (
             "alpha",
-            Box::new(|p: &mut suslov::suslov::problem::SuslovProblem| p.weights.alpha = 0.0)
+            Box::new(|p: &mut suslov::so3::problem::SuslovProblem| p.weights.alpha = 0.0)
                 as Box<dyn Fn(&mut _)>,
         ),
         (
             "beta",
-            Box::new(|p: &mut suslov::suslov::problem::SuslovProblem| p.weights.beta = -1.0),
+            Box::new(|p: &mut suslov::so3::problem::SuslovProblem| p.weights.beta = -1.0),
         ),
     ] {
         let mut p = paper::problem(1.0);
@@ -88,7 +88,7 @@ fn degenerate_boundary_data_is_rejected() {
 fn solve_reports_an_invalid_problem_instead_of_panicking() {
     let mut p = paper::problem(1.0);
     p.weights.beta = 0.0;
-    let err = suslov::suslov::solve::solve(&p, &Default::default(), &mut |_| {})
+    let err = suslov::so3::solve::solve(&p, &Default::default(), &mut |_| {})
         .expect_err("beta = 0 is singular");
     assert!(err.to_string().starts_with("invalid problem: beta"));
 }
@@ -167,7 +167,7 @@ fn gamma_zero_starts_from_a_nominal_path_whatever_the_desired_path() {
     // segment) while gamma_c goes from 1 to 0, so Omega_d (here a constant that is not even
     // admissible as a path to Omega_b) plays no role.
     use std::sync::Arc;
-    use suslov::suslov::{Constant, EnergyEllipsoid};
+    use suslov::so3::{Constant, EnergyEllipsoid};
     let mut p = paper::fixed_time_problem(0.0, 5.0);
     let e = EnergyEllipsoid::through(p.inertia, &p.omega_a).expect("ellipsoid");
     p.omega_b = e.project(&Vector3::new(1.0, 2.0, 1.0)).expect("projection");
@@ -240,7 +240,7 @@ fn the_start_case_can_be_overridden() {
     // tracking term is what pins Omega down); the automatic choice (third case) does. The
     // override must either work with the case it names or stop cleanly: at the start, or
     // (another route having passed the start) in a later stage.
-    use suslov::suslov::solve::{SolveError, StartStrategy};
+    use suslov::so3::solve::{SolveError, StartStrategy};
     let problem = paper::problem(0.01);
     for (strategy, case, omega_p) in [
         (StartStrategy::Desired, 3, "projected desired path"),

@@ -9,7 +9,7 @@ use suslov::lie::checks::{
     Verdict, Verification, K_CONSTRAINT, K_ENERGY, K_LOCAL_ERROR, K_REINTEGRATION,
     REINTEGRATION_FLOOR, TOLERANCE, TOL_MAX,
 };
-use suslov::suslov::solve::{solve, Event, SolveError, SolveOptions, StageOutcome, StartStrategy};
+use suslov::so3::solve::{solve, Event, SolveError, SolveOptions, StageOutcome, StartStrategy};
 use suslov::{paper, SuslovSolution};
 
 /// The checks of a so(3) solution (the generic layer's, on its model `so3` solution).

@@ -1001,7 +1001,7 @@ pub fn run_model_rank_at_states<M: Model>(
     a: &super::RankAtStates,
 ) -> Result<super::RankTable, AppError> {
     use crate::lie::controllability::{rank_at, sample_states, ON_LEVEL_RTOL};
-    use crate::suslov::controllability as c;
+    use crate::so3::controllability as c;
     use std::fmt::Write;
     c::check_rtol(a.rtol).map_err(|e| AppError::InvalidArgument(e.to_string()))?;
     let p = rank_parameters::<M>(a.inertia, a.constraint)?;

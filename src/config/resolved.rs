@@ -87,10 +87,10 @@ pub(crate) fn section<'a>(t: &'a mut toml::Table, key: &str) -> &'a mut toml::Ta
 
 /// `[cost]` of an so(3) problem: every weight under its generated name
 /// (`model::generated::WEIGHTS`, the keys of the so(3) file's `[cost]`).
-pub(crate) fn so3_cost(weights: &crate::suslov::problem::CostWeights) -> toml::Table {
+pub(crate) fn so3_cost(weights: &crate::so3::problem::CostWeights) -> toml::Table {
     use crate::model::generated as g;
     // The inertia does not enter the weights' slots.
-    let p = crate::suslov::problem::model_params([1.0; crate::suslov::problem::N_INERTIA], weights);
+    let p = crate::so3::problem::model_params([1.0; crate::so3::problem::N_INERTIA], weights);
     g::WEIGHTS
         .iter()
         .map(|m| (m.name.to_string(), toml::Value::Float(p[m.index])))
@@ -171,10 +171,10 @@ fn warm_start_csv(w: &Arc<WarmStart>, state_names: &[&str]) -> Vec<u8> {
 }
 
 /// The resolved input of one of the paper's cases (section 5.3): the body, end points,
-/// spiral and weights of [`crate::suslov::paper::problem`], the default solver options.
-pub fn paper_case(case: &crate::suslov::paper::PaperCase) -> ResolvedInput {
-    use crate::suslov::desired::PaperSpiral;
-    let problem = crate::suslov::paper::problem(case.eta);
+/// spiral and weights of [`crate::so3::paper::problem`], the default solver options.
+pub fn paper_case(case: &crate::so3::paper::PaperCase) -> ResolvedInput {
+    use crate::so3::desired::PaperSpiral;
+    let problem = crate::so3::paper::problem(case.eta);
     let spiral = PaperSpiral::paper();
     let mut t = toml::Table::new();
     t.insert("model".into(), toml::Value::String("so3".into()));

@@ -31,7 +31,7 @@
 //! use nalgebra::Vector3;
 //! use suslov::lie::certify::certify;
 //! use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
-//! use suslov::suslov::{EnergyEllipsoid, Inertia, ProjectedSegment};
+//! use suslov::so3::{EnergyEllipsoid, Inertia, ProjectedSegment};
 //! use suslov::{solve, CostWeights, SolveOptions, SuslovProblem, TerminalTime};
 //!
 //! let inertia = Inertia::new([1.0, 2.0, 3.0])?;

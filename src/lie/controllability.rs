@@ -11,7 +11,7 @@
 //!   `M = {⟨Ω, ξ⟩ = γ(ξ)}`, `dim M = 2n − 1`.
 //!
 //! The numerical rank is `#{k : σₖ > rtol · σ₁}` (SVD), as in
-//! [`crate::suslov::controllability`]; along a solution ([`rank_along`]) and at a given state
+//! [`crate::so3::controllability`]; along a solution ([`rank_along`]) and at a given state
 //! ([`rank_at`]) the state tested is the nearest one on the constraint level
 //! `φ = ⟨Ω, ξ⟩ − γ(ξ) = 0` (`ξ` moved along `∂φ/∂ξ` by Newton steps on the generated
 //! `constraint_residual`; the violation of the state as given is reported separately) and, for

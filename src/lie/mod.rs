@@ -16,7 +16,7 @@
 //! - [`direct`]: the direct start (a minimum of the transcribed problem by SQP) for the BVP;
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
-//! This layer knows nothing of the so(3) problem layer ([`crate::suslov`]), which predates it
+//! This layer knows nothing of the so(3) problem layer ([`crate::so3`]), which predates it
 //! and still serves the paper's outputs (figures, the stability experiment, its certificate
 //! and controllability reports). The so(3) layer solves through this one
 //! (`SuslovProblem::to_generic`), and the types both share (options, stage records, events,

@@ -3,18 +3,18 @@
 //! `{v : ⟨v, I v⟩ = level}` of a symmetric positive definite matrix `I` onto which they are
 //! projected radially.
 //!
-//! This is the `n`-dimensional counterpart of [`crate::suslov::desired`] (which is fixed to
+//! This is the `n`-dimensional counterpart of [`crate::so3::desired`] (which is fixed to
 //! `n = 3` and a diagonal inertia):
 //!
 //! | here | so(3) version |
 //! |---|---|
-//! | [`Path`] (`jet_into`: `[Ω, Ω̇, Ω̈, Ω⃛]`, `4·n` numbers) | [`DesiredPath`](crate::suslov::desired::DesiredPath) |
-//! | [`Constant`] | [`desired::Constant`](crate::suslov::desired::Constant) |
+//! | [`Path`] (`jet_into`: `[Ω, Ω̇, Ω̈, Ω⃛]`, `4·n` numbers) | [`DesiredPath`](crate::so3::desired::DesiredPath) |
+//! | [`Constant`] | [`desired::Constant`](crate::so3::desired::Constant) |
 //! | [`Segment`] | — (the inner path of a `ProjectedSegment`) |
-//! | [`Sampled`] | [`SampledPath`](crate::suslov::desired::SampledPath) (which *is* a `Sampled` with `n = 3`) |
-//! | [`LevelSet`] | [`EnergyEllipsoid`](crate::suslov::ellipsoid::EnergyEllipsoid) |
-//! | [`Projected`] | [`ProjectedPath`](crate::suslov::desired::ProjectedPath) |
-//! | [`projected_segment`] | [`ProjectedSegment`](crate::suslov::desired::ProjectedSegment) |
+//! | [`Sampled`] | [`SampledPath`](crate::so3::desired::SampledPath) (which *is* a `Sampled` with `n = 3`) |
+//! | [`LevelSet`] | [`EnergyEllipsoid`](crate::so3::ellipsoid::EnergyEllipsoid) |
+//! | [`Projected`] | [`ProjectedPath`](crate::so3::desired::ProjectedPath) |
+//! | [`projected_segment`] | [`ProjectedSegment`](crate::so3::desired::ProjectedSegment) |
 //!
 //! Exactness: [`Constant`] and [`Segment`] are polynomials of degree ≤ 1 (their jets are
 //! written out), [`Sampled`] evaluates its cubic pieces on a third-order dual number, and
@@ -506,7 +506,7 @@ impl Path for Segment {
 /// The third derivative is piecewise constant, discontinuous at the knots (a knot belongs
 /// to the interval on its right, except `t_N`, which belongs to the last interval).
 ///
-/// This is the spline core of [`SampledPath`](crate::suslov::desired::SampledPath), which is
+/// This is the spline core of [`SampledPath`](crate::so3::desired::SampledPath), which is
 /// a `Sampled` with `n = 3`.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Sampled {
@@ -837,7 +837,7 @@ impl LevelSet {
     }
 
     /// The radial projection `v·sqrt(level/⟨v, I v⟩)` of `v` onto the set (overflow-safe, as
-    /// [`EnergyEllipsoid::project`](crate::suslov::ellipsoid::EnergyEllipsoid::project)).
+    /// [`EnergyEllipsoid::project`](crate::so3::ellipsoid::EnergyEllipsoid::project)).
     /// Errors for a wrong length, a non-finite or zero `v`, and if the projection overflows.
     pub fn project(&self, v: &[f64]) -> Result<Vec<f64>, PathError> {
         check_vector("LevelSet::project: v", v, Some(self.n))?;
@@ -1147,7 +1147,7 @@ impl Path for Projected {
 ///
 /// Both end points must lie on the set within `tol` relative energy mismatch
 /// (`|⟨v, I v⟩/level − 1| ≤ tol`); `to` is projected exactly onto the set first (like
-/// [`ProjectedSegment::new`](crate::suslov::desired::ProjectedSegment::new)), so the path
+/// [`ProjectedSegment::new`](crate::so3::desired::ProjectedSegment::new)), so the path
 /// ends on the set; `from` is kept (it is projected at `t0` anyway). `from = to` gives the
 /// constant path. Errors if the segment passes within `1e-8·|from|` of the origin (end
 /// points (nearly) opposite), with the distance in the message.
@@ -1230,8 +1230,8 @@ pub fn projected_segment(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::{DesiredPath, ProjectedPath, ProjectedSegment, SampledPath};
-    use crate::suslov::ellipsoid::{EnergyEllipsoid, Inertia};
+    use crate::so3::desired::{DesiredPath, ProjectedPath, ProjectedSegment, SampledPath};
+    use crate::so3::ellipsoid::{EnergyEllipsoid, Inertia};
     use nalgebra::Vector3;
 
     fn jet(path: &dyn Path, t: f64) -> Vec<f64> {
@@ -1267,7 +1267,7 @@ mod tests {
     }
 
     /// 8th-order central finite differences of `value_into` (6th order for the third
-    /// derivative), as `finite_difference_derivatives` in `suslov::desired`.
+    /// derivative), as `finite_difference_derivatives` in `so3::desired`.
     fn finite_differences(path: &dyn Path, t: f64, h: f64) -> [Vec<f64>; 3] {
         let f: Vec<Vec<f64>> = (-4..=4).map(|k| value(path, t + k as f64 * h)).collect();
         let n = path.dim();

@@ -168,7 +168,7 @@ pub fn source_hash_of(name: &str) -> &'static str {
         .map_or("", |(_, h)| h)
 }
 
-/// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::suslov`])
+/// The paper's model, Suslov's problem on so(3), which the problem layer ([`crate::so3`])
 /// solves.
 pub use so3 as generated;
 

@@ -8,8 +8,8 @@ use std::sync::Arc;
 use suslov::lie::path::Path as LiePath;
 use suslov::lie::Problem;
 use suslov::model::Model;
-use suslov::suslov::desired::DesiredPath;
-use suslov::suslov::paper;
+use suslov::so3::desired::DesiredPath;
+use suslov::so3::paper;
 
 /// An so(3) desired path as a path of the generic layer (test adapter).
 pub struct So3Path(pub Arc<dyn DesiredPath + Send + Sync>);

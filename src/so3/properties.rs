@@ -132,7 +132,7 @@ pub fn check_properties(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::{Constant, PaperSpiral, Projected, ProjectedSegment};
+    use crate::so3::desired::{Constant, PaperSpiral, Projected, ProjectedSegment};
 
     const N: usize = 100_001;
 

@@ -674,8 +674,8 @@ pub fn report_table_rows(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::{DesiredPath, PaperSpiral};
-    use crate::suslov::singular::singular_control_at;
+    use crate::so3::desired::{DesiredPath, PaperSpiral};
+    use crate::so3::singular::singular_control_at;
     use nalgebra::{Matrix6, Vector6};
 
     fn rng(seed: u64) -> impl FnMut() -> f64 {

@@ -341,7 +341,7 @@ pub fn stability_experiment(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::{DesiredPath, PaperSpiral, Projected};
+    use crate::so3::desired::{DesiredPath, PaperSpiral, Projected};
 
     fn grid(a: f64, b: f64, m: usize) -> Vec<f64> {
         (0..=m)

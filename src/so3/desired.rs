@@ -26,7 +26,7 @@
 //! here.
 //!
 //! ```
-//! use suslov::suslov::desired::{DesiredPath, DualNum, PathEval, Scalar};
+//! use suslov::so3::desired::{DesiredPath, DualNum, PathEval, Scalar};
 //!
 //! /// Ω(t) = [1, sin t, e^{-t}]
 //! struct MyPath;

@@ -135,8 +135,8 @@ fn at_time(e: SuslovError, t: f64) -> SuslovError {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::suslov::desired::{finite_difference_derivatives, Constant, PaperSpiral, PathEval};
-    use crate::suslov::equations::{suslov_multiplier, suslov_residual};
+    use crate::so3::desired::{finite_difference_derivatives, Constant, PaperSpiral, PathEval};
+    use crate::so3::equations::{suslov_multiplier, suslov_residual};
     use approx::assert_relative_eq;
 
     #[test]
@@ -253,7 +253,7 @@ mod tests {
     #[test]
     fn generated_jet_agrees_with_an_independent_evaluation() {
         let p = PaperSpiral::paper();
-        let segment = crate::suslov::desired::ProjectedSegment::new(
+        let segment = crate::so3::desired::ProjectedSegment::new(
             Inertia::paper(),
             p.omega_a(),
             p.omega_b(),
