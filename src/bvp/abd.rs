@@ -58,7 +58,7 @@
 //! * U. Ascher, R. Mattheij, R. Russell, *Numerical Solution of Boundary Value Problems for
 //!   Ordinary Differential Equations*, SIAM 1995, ch. 7 (almost block diagonal systems).
 
-use super::dense::{avx2, axpy, dot};
+use super::dense::{abs_max, avx2, axpy, dot};
 
 /// The reduction behind a factorisation (`BorderedAbd::method`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
@@ -130,6 +130,8 @@ pub(crate) struct BorderedAbd {
     min_pivot: f64,
     /// Squared column norms of `D J`, columns ordered `y_0 .. y_N, p`.
     col_norm2: Vec<f64>,
+    /// Their reciprocal square roots (`1 / ||(D J)_j||_2`).
+    col_inv_norm: Vec<f64>,
     factored: bool,
     /// Workspaces of the solves (`2n + k` and `2n + k`).
     active: Vec<f64>,
@@ -159,6 +161,7 @@ impl BorderedAbd {
             growth: f64::NAN,
             min_pivot: f64::NAN,
             col_norm2: vec![0.0; (intervals + 1) * n + k],
+            col_inv_norm: vec![0.0; (intervals + 1) * n + k],
             factored: false,
             active: vec![0.0; q],
             border: vec![0.0; q],
@@ -218,24 +221,38 @@ impl BorderedAbd {
         let wc = 2 * n + k;
         debug_assert_eq!(values.len(), (nn * n + n + k) * wc);
         for (d, row) in self.row_scale.iter_mut().zip(values.chunks_exact(wc)) {
-            let max = row.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
-            if max == 0.0 || !max.is_finite() || row.iter().any(|v| !v.is_finite()) {
+            // `bad` is NaN when an entry is infinite or NaN (`v * 0`).
+            let (max, bad) = abs_max(row);
+            if max == 0.0 || !max.is_finite() || bad.is_nan() {
                 return Err(AbdError::Singular);
             }
             *d = 1.0 / max;
         }
         let po = (nn + 1) * n;
-        self.col_norm2.fill(0.0);
-        for (r, row) in values.chunks_exact(wc).enumerate() {
-            let d2 = self.row_scale[r] * self.row_scale[r];
-            let (first, second) = row_nodes(r, n, nn);
-            for c in 0..n {
-                self.col_norm2[first + c] += row[c] * row[c] * d2;
-                self.col_norm2[second + c] += row[n + c] * row[n + c] * d2;
+        let col_norm2 = &mut self.col_norm2;
+        col_norm2.fill(0.0);
+        // Row by row, in order (the interval blocks' rows, then the boundary rows).
+        let (blocks, boundary) = values.split_at(nn * n * wc);
+        for (i, (block, scale)) in blocks
+            .chunks_exact(n * wc)
+            .zip(self.row_scale.chunks_exact(n))
+            .enumerate()
+        {
+            for (row, d) in block.chunks_exact(wc).zip(scale) {
+                let d2 = d * d;
+                add_squares(&mut col_norm2[i * n..(i + 1) * n], &row[..n], d2);
+                add_squares(&mut col_norm2[(i + 1) * n..(i + 2) * n], &row[n..2 * n], d2);
+                add_squares(&mut col_norm2[po..po + k], &row[2 * n..], d2);
             }
-            for c in 0..k {
-                self.col_norm2[po + c] += row[2 * n + c] * row[2 * n + c] * d2;
-            }
+        }
+        for (r, row) in boundary.chunks_exact(wc).enumerate() {
+            let d2 = self.row_scale[nn * n + r] * self.row_scale[nn * n + r];
+            add_squares(&mut col_norm2[..n], &row[..n], d2);
+            add_squares(&mut col_norm2[nn * n..(nn + 1) * n], &row[n..2 * n], d2);
+            add_squares(&mut col_norm2[po..po + k], &row[2 * n..], d2);
+        }
+        for (inv, norm2) in self.col_inv_norm.iter_mut().zip(col_norm2.iter()) {
+            *inv = 1.0 / norm2.sqrt();
         }
         // Elimination first; orthogonal reduction if it grows or meets a tiny or zero pivot.
         if self.try_lu
@@ -285,15 +302,15 @@ impl BorderedAbd {
         let block = s * cols;
         let mut growth = 0.0_f64;
         let mut min_pivot = f64::INFINITY;
-        let col_norm2 = &self.col_norm2;
+        let col_inv_norm = &self.col_inv_norm;
         let row_scale = &self.row_scale;
         // max_i |col_i| / ||(D J)_j||.
         let ratio = |col: &[f64], j: usize| {
-            let m = col.iter().fold(0.0_f64, |a, v| a.max(v.abs()));
+            let m = abs_max(col).0;
             if m == 0.0 {
                 0.0
             } else {
-                m / col_norm2[j].sqrt()
+                m * col_inv_norm[j]
             }
         };
         // Scaled entry (r, c) of the block row of interval i.
@@ -359,7 +376,7 @@ impl BorderedAbd {
                 };
                 growth = growth.max(ratio(&step[c * s..c * s + top], j));
                 if c < n {
-                    min_pivot = min_pivot.min(step[c * s + c].abs() / col_norm2[j].sqrt());
+                    min_pivot = min_pivot.min(step[c * s + c].abs() * col_inv_norm[j]);
                 }
             }
             if lu && (growth > LU_GROWTH_LIMIT || growth.is_nan()) {
@@ -407,7 +424,7 @@ impl BorderedAbd {
                 _ => po + c - 2 * n,
             };
             growth = growth.max(ratio(&last[c * q..c * q + c + 1], j));
-            min_pivot = min_pivot.min(last[c * q + c].abs() / col_norm2[j].sqrt());
+            min_pivot = min_pivot.min(last[c * q + c].abs() * col_inv_norm[j]);
         }
         self.growth = growth;
         self.min_pivot = min_pivot;
@@ -429,16 +446,22 @@ impl BorderedAbd {
     /// Solve `(D J) x = b` in place (the row-equilibrated matrix).
     pub fn solve_scaled_in_place(&mut self, x: &mut [f64]) -> bool {
         avx2!(fn(this: &mut BorderedAbd, x: &mut [f64]) -> bool {
-            this.solve_scaled_impl(x)
+            // The common sizes as constants (as in `sweep_sized`; the same bits).
+            match (this.n, this.k) {
+                (12, 1) => this.solve_scaled_impl(x, 12, 1),
+                (24, 1) => this.solve_scaled_impl(x, 24, 1),
+                (n, k) => this.solve_scaled_impl(x, n, k),
+            }
         }, self, x)
     }
 
     #[inline(always)]
-    fn solve_scaled_impl(&mut self, x: &mut [f64]) -> bool {
+    fn solve_scaled_impl(&mut self, x: &mut [f64], n: usize, k: usize) -> bool {
+        debug_assert_eq!((n, k), (self.n, self.k));
         if !self.factored {
             return false;
         }
-        let (n, k, nn) = (self.n, self.k, self.intervals);
+        let nn = self.intervals;
         let s = 2 * n;
         let cols = 3 * n + k;
         let block = s * cols;
@@ -579,6 +602,14 @@ impl BorderedAbd {
 /// in one sweep). On return the upper triangle of the first `p` columns is `R`, the
 /// reflectors' vectors (with an implicit leading 1) lie below it, `tau[j]` are their
 /// scalars. Fails if a diagonal entry of `R` is zero or not finite.
+/// `acc_c += x_c^2 d2` for every `c`.
+#[inline(always)]
+fn add_squares(acc: &mut [f64], x: &[f64], d2: f64) {
+    for (a, v) in acc.iter_mut().zip(x) {
+        *a += v * v * d2;
+    }
+}
+
 /// The offsets of the two node blocks that row `row` of the matrix touches: `y_i` and
 /// `y_{i+1}` for a row of interval `i`, `y_0` and `y_N` for a boundary row (the `p` columns
 /// come after `y_N` in every row).

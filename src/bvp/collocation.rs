@@ -20,7 +20,7 @@
 //! eliminated interval by interval (see `Collocation::evaluate_jacobian`).
 
 use super::dense::{
-    avx2, dot, lu_factor, lu_right_solve, lu_right_solve_strided, lu_solve, lu_solve_rows,
+    abs_sum, avx2, dot, lu_factor, lu_right_solve, lu_right_solve_strided, lu_solve, lu_solve_rows,
     sub_mat_mul_strided,
 };
 use super::problem::{BvpProblem, Evaluator};
@@ -226,7 +226,7 @@ impl Collocation {
             bc_blocks: vec![0.0; (n + k) * wc],
             z: vec![0.0; nn * s],
             work: vec![0.0; 2 * n + k],
-            cond_work: vec![0.0; 2 * n * n],
+            cond_work: vec![0.0; 3 * n * n],
             bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
         }
     }
@@ -451,7 +451,18 @@ impl Collocation {
     /// right-hand side `rhs = -[Phi_4 - X Phi_st; g]` (length `m*n + k`); keeps `Phi_st` for
     /// [`expand_correction`](Self::expand_correction).
     pub fn reduce_residual(&mut self, res: &[f64], rhs: &mut [f64]) {
-        let Layout { n, .. } = self.lay;
+        avx2!(fn(this: &mut Collocation, res: &[f64], rhs: &mut [f64]) -> () {
+            match this.lay.n {
+                12 => this.reduce_impl(res, rhs, 12),
+                24 => this.reduce_impl(res, rhs, 24),
+                n => this.reduce_impl(res, rhs, n),
+            }
+        }, self, res, rhs)
+    }
+
+    #[inline(always)]
+    fn reduce_impl(&mut self, res: &[f64], rhs: &mut [f64], n: usize) {
+        debug_assert_eq!(n, self.lay.n);
         let s = 2 * n;
         let so = self.lay.stage_offset();
         let nn = self.lay.intervals();
@@ -476,13 +487,18 @@ impl Collocation {
     /// + M_p dp`.
     pub fn expand_correction(&mut self, delta: &mut [f64]) {
         avx2!(fn(this: &mut Collocation, delta: &mut [f64]) -> () {
-            this.expand_impl(delta)
+            // The common sizes as constants (as in `condense_range`; the same bits).
+            match (this.lay.n, this.lay.k) {
+                (12, 1) => this.expand_impl(delta, 12, 1),
+                (24, 1) => this.expand_impl(delta, 24, 1),
+                (n, k) => this.expand_impl(delta, n, k),
+            }
         }, self, delta)
     }
 
     #[inline(always)]
-    fn expand_impl(&mut self, delta: &mut [f64]) {
-        let Layout { n, k, .. } = self.lay;
+    fn expand_impl(&mut self, delta: &mut [f64], n: usize, k: usize) {
+        debug_assert_eq!((n, k), (self.lay.n, self.lay.k));
         let s = 2 * n;
         let n2 = n * n;
         let po = self.lay.p_offset();
@@ -554,7 +570,7 @@ struct StageJacobians<'a> {
 }
 
 /// What it writes, for a run of consecutive intervals (the slices start at the run's first
-/// interval), and a scratch of `2 n^2`. (Runs of intervals are independent: they could go
+/// interval), and a scratch of `3 n^2`. (Runs of intervals are independent: they could go
 /// to different threads.)
 struct CondensedBlocks<'a> {
     klu: &'a mut [f64],
@@ -678,7 +694,6 @@ fn condense_interval(
         let (p11, ps) = piv.split_at_mut(n);
         // Row sums: ||K||_inf, ||K_11||_inf, ||K_21||_inf (row by row, the loops over a row
         // without branches so that they vectorise; the diagonal is fixed after).
-        let abs_sum = |row: &[f64]| row.iter().fold(0.0, |a, v| a + v.abs());
         let (mut norm_k, mut norm_k11, mut norm_k21) = (0.0_f64, 0.0_f64, 0.0_f64);
         for r in 0..n {
             let (j2r, j3r) = (&j2[r * n..(r + 1) * n], &j3[r * n..(r + 1) * n]);
@@ -725,8 +740,8 @@ fn condense_interval(
         if growth.is_nan() || growth > jac.kblock_growth_limit || !lu_factor(sm, n, ps) {
             break 'block false;
         }
-        lu_right_solve_strided(&sm[..], n, ps, &mut xm[n..], n, s);
-        let z = &mut out.scratch[..n2];
+        lu_right_solve_strided(&sm[..], n, ps, &mut xm[n..], n, s, out.scratch);
+        let (z, work) = out.scratch.split_at_mut(n2);
         for r in 0..n {
             for c in 0..n {
                 let delta = if r == c { beta } else { 0.0 };
@@ -736,7 +751,7 @@ fn condense_interval(
         for r in 0..n {
             xm[r * s..r * s + n].copy_from_slice(&z[r * n..(r + 1) * n]);
         }
-        lu_right_solve(&k11[..], n, p11, z, n);
+        lu_right_solve(&k11[..], n, p11, z, n, work);
         for r in 0..n {
             for c in 0..n {
                 xm[r * s + c] -= z[r * n + c];
@@ -778,7 +793,7 @@ fn condense_interval(
         if !lu_factor(klu, s, piv) {
             return Err(i);
         }
-        lu_right_solve(klu, s, piv, xm, n);
+        lu_right_solve(klu, s, piv, xm, n, out.scratch);
     }
     // X M_a = -(X_2 + X_3) - h (a21 X_2 + a31 X_3) J1,  X M_b = -h (a24 X_2 + a34 X_3) J4.
     let (ya, yb) = out.scratch.split_at_mut(n2);
