@@ -551,9 +551,17 @@ def check_against_trajectory(lib, csv_path, eta):
     data = np.genfromtxt(csv_path, delimiter=",", names=True)
     cols = ["omega1", "omega2", "omega3", "xi1", "xi2", "xi3", "xidot1", "xidot2", "xidot3",
             "kappa1", "kappa2", "kappa3"]
-    t = data["t"]
-    y = np.vstack([data[c] for c in cols])
-    h = t[1] - t[0]
+    # The rows are 2001 uniform times merged with the mesh nodes (`--points`): keep the
+    # uniform ones (the differences below need a uniform step).
+    t_all = data["t"]
+    h = (t_all[-1] - t_all[0]) / 2000
+    grid = np.rint((t_all - t_all[0]) / h)
+    uniform = np.abs(t_all - (t_all[0] + grid * h)) <= 1e-9 * (t_all[-1] - t_all[0])
+    _, first = np.unique(grid[uniform], return_index=True)
+    rows = np.flatnonzero(uniform)[first]
+    assert len(rows) == 2001, f"{csv_path}: {len(rows)} uniform rows, expected 2001"
+    t = t_all[rows]
+    y = np.vstack([data[c][rows] for c in cols])
     params = np.array([*INERTIA, ALPHA, BETA, GAMMA, eta, DELTA])
     desired = DESIRED
     f = lib["ode_rhs"](y, params, desired(t))[0]
@@ -579,7 +587,8 @@ def load_average():
 
 def run_ours(binary, out):
     t = time.perf_counter()
-    subprocess.run([binary, "paper", "--out", out, "-q"], check=True)
+    # Its result lines go to stdout (the command line's convention): not into the table.
+    subprocess.run([binary, "paper", "--out", out, "-q"], check=True, stdout=subprocess.DEVNULL)
     wall = time.perf_counter() - t
     with open(os.path.join(out, "summary.json")) as fh:
         summary = json.load(fh)

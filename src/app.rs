@@ -346,8 +346,9 @@ fn write_case_outputs(
         );
     }
     // The figures are independent: render every figure in every format ([`FigureFormat::ALL`]:
-    // PNG and SVG) side by side, then write them in their usual order (the bytes do not
-    // depend on which thread drew them).
+    // PNG and SVG) on as many threads as the machine has cores (each taking the next figure
+    // and keeping one bitmap canvas for all it draws), then write them in their usual order
+    // (the bytes do not depend on which thread drew them).
     let jobs: Vec<(report::Figure, FigureOptions)> = report::Figure::ALL
         .iter()
         .flat_map(|&fig| {
@@ -360,28 +361,48 @@ fn write_case_outputs(
             })
         })
         .collect();
-    let rendered: Vec<Result<Vec<u8>, ReportError>> = std::thread::scope(|scope| {
-        let handles: Vec<_> = jobs
-            .iter()
-            .map(|(fig, opts)| {
-                let (fig, table) = (*fig, &table);
-                (
-                    fig,
-                    scope.spawn(move || report::render_figure_bytes(fig, table, opts)),
-                )
-            })
-            .collect();
-        handles
-            .into_iter()
-            .map(|(fig, handle)| {
-                handle.join().unwrap_or_else(|_| {
-                    Err(ReportError::Plot {
-                        path: PathBuf::from(fig.stem()),
-                        message: "the renderer panicked".to_string(),
-                    })
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |n| n.get())
+        .clamp(1, jobs.len());
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let mut rendered: Vec<Option<Result<Vec<u8>, ReportError>>> =
+        (0..jobs.len()).map(|_| None).collect();
+    std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                let (jobs, table, next) = (&jobs, &table, &next);
+                scope.spawn(move || {
+                    let mut canvas = Vec::new();
+                    let mut done = Vec::new();
+                    loop {
+                        let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some((fig, opts)) = jobs.get(j) else {
+                            break done;
+                        };
+                        done.push((
+                            j,
+                            report::render_figure_bytes_in(*fig, table, opts, &mut canvas),
+                        ));
+                    }
                 })
             })
-            .collect()
+            .collect();
+        for handle in handles {
+            // A worker that panicked leaves its figures unrendered (reported below).
+            if let Ok(done) = handle.join() {
+                for (j, bytes) in done {
+                    rendered[j] = Some(bytes);
+                }
+            }
+        }
+    });
+    let rendered = rendered.into_iter().zip(&jobs).map(|(bytes, (fig, _))| {
+        bytes.unwrap_or_else(|| {
+            Err(ReportError::Plot {
+                path: PathBuf::from(fig.stem()),
+                message: "the renderer panicked".to_string(),
+            })
+        })
     });
     for ((fig, opts), bytes) in jobs.iter().zip(rendered) {
         let path = out.write(

@@ -234,6 +234,15 @@ fn every_figure_is_well_formed_svg_with_both_title_lines() {
         assert_eq!(texts[1], PAPER_CAPTION, "{fig:?}");
         // The case name is in the subtitle, not repeated after the title.
         assert!(!texts[0].contains("(case)"), "{fig:?}: {}", texts[0]);
+        // Wide lines turn with round joins (a miter join spikes at sharp turns).
+        let polylines = svg.matches("<polyline").count();
+        assert!(polylines > 0, "{fig:?}: no polyline");
+        assert_eq!(
+            svg.matches("<polyline stroke-linejoin=\"round\" stroke-linecap=\"round\"")
+                .count(),
+            polylines,
+            "{fig:?}"
+        );
     }
     // The components of ξ and ξ̇ have their legend entries.
     for (fig, names) in [

@@ -63,8 +63,9 @@ pub use csv::{
 };
 pub use error::ReportError;
 pub use figures::{
-    case_subtitle, choose_view_3d, render_figure_bytes, render_planar_path_png, write_case_figures,
-    write_figure, Figure, FigureFormat, FigureOptions, DEFAULT_VIEW_3D,
+    case_subtitle, choose_view_3d, render_figure_bytes, render_figure_bytes_in,
+    render_planar_path_png, write_case_figures, write_figure, Figure, FigureFormat, FigureOptions,
+    DEFAULT_VIEW_3D,
 };
 pub use npz::{npy_1d_bytes, npz_bytes};
 pub use number::significant;
