@@ -26,6 +26,20 @@
 //! the constraint level. With a nonzero constraint value `M` is the constraint level alone and
 //! the energy is not fixed on it; `Ω` is put on the level set of `Ω_a` all the same: that is
 //! one choice of states of `M` (a slice of it), not the only one.
+//!
+//! # Example: the rank along the paper's η = 0.01 solution
+//!
+//! ```
+//! use suslov::lie::controllability::{rank_along, RANK_RTOL};
+//! use suslov::{paper, solve, SolveOptions};
+//!
+//! let solution = solve(&paper::problem(0.01), &SolveOptions::default(), &mut |_| {})?;
+//! let along = rank_along(&solution.generic, 50, RANK_RTOL);
+//! assert_eq!(along.dim_m, 4); // so(3): M = {⟨Ω, ξ⟩ = 0, energy fixed}, 2n − 2 = 4
+//! assert_eq!((along.min_rank, along.max_rank), (4, 4)); // accessible at every sample
+//! assert!(along.min_sigma_dim_m > 1e-6 && along.max_sigma_next < 1e-9);
+//! # Ok::<(), suslov::SolveError>(())
+//! ```
 
 use nalgebra::DMatrix;
 

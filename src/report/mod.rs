@@ -11,6 +11,38 @@
 //!   `constraint`, `xi_norm`, `kappa`, `omega`, `xi` and `xi_dot`, as PNG by default (text
 //!   drawn from an embedded font, so no system font library is needed) or SVG.
 //!
+//! # Example: a solution's trajectory as CSV and a figure
+//!
+//! ```
+//! use suslov::model::generated::{KAPPA, OMEGA, XI, XIDOT};
+//! use suslov::report::{render_figure_bytes, trajectory_csv_string, Figure, FigureOptions};
+//! use suslov::report::{EnergyEllipsoid, TrajectoryTable};
+//! use suslov::{paper, solve, SolveOptions};
+//!
+//! let solution = solve(&paper::problem(0.01), &SolveOptions::default(), &mut |_| {})?;
+//! let b = solution.terminal_time();
+//! let t: Vec<f64> = (0..=200).map(|i| b * i as f64 / 200.0).collect();
+//! let rows = solution.states_at(&t);
+//! let block = |y: &[f64], r: std::ops::Range<usize>| -> [f64; 3] { y[r].try_into().unwrap() };
+//! let table = TrajectoryTable {
+//!     omega: rows.iter().map(|y| block(y, OMEGA)).collect(),
+//!     xi: rows.iter().map(|y| block(y, XI)).collect(),
+//!     xi_dot: rows.iter().map(|y| block(y, XIDOT)).collect(),
+//!     kappa: rows.iter().map(|y| block(y, KAPPA)).collect(),
+//!     omega_d: t.iter().map(|&s| solution.problem.desired.value(s).into()).collect(),
+//!     t,
+//! };
+//! let csv = trajectory_csv_string(&table)?;
+//! assert!(csv.starts_with("t,omega1,omega2,omega3,xi1"));
+//! assert_eq!(csv.lines().count(), 202); // header + 201 rows
+//! let inertia = solution.problem.inertia.diag().into();
+//! let e = EnergyEllipsoid::through(inertia, table.omega[0])?;
+//! let opts = FigureOptions::new("eta_0.01", e);
+//! let png = render_figure_bytes(Figure::Constraint, &table, &opts)?;
+//! assert_eq!(&png[1..4], b"PNG");
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
 //! ## Figures
 //!
 //! One directory per case, files `<stem>.png` or `.svg` (`suslov solve` and `paper` write
