@@ -185,7 +185,7 @@ impl CertificateReport {
             "case {name}: {msg}\n\
              \x20 b = {b}{free}, cost = {cost}, {iv} intervals: {nv} unknowns, {nc} constraints\n\
              \x20 indirect solution as a KKT point: stationarity {cs:.1e}, feasibility {cf:.1e}\n\
-             \x20 Newton to the exact KKT point: {it} iterations, displacement {disp:.1e}, \
+             \x20 Newton to the exact KKT point: {it} {iterations}, displacement {disp:.1e}, \
              residuals {ks:.1e} / {kf:.1e}\n\
              \x20 multipliers vs costates from kappa: {cm:.1e} (relative)\n\
              \x20 KKT matrix inertia: {p} positive, {n} negative, {z} zero eigenvalues (a strict \
@@ -210,6 +210,7 @@ impl CertificateReport {
             cs = self.candidate_stationarity,
             cf = self.candidate_feasibility,
             it = self.newton_iterations,
+            iterations = if self.newton_iterations == 1 { "iteration" } else { "iterations" },
             disp = self.displacement,
             ks = self.kkt_stationarity,
             kf = self.kkt_feasibility,
