@@ -210,7 +210,11 @@ impl CertificateReport {
             cs = self.candidate_stationarity,
             cf = self.candidate_feasibility,
             it = self.newton_iterations,
-            iterations = if self.newton_iterations == 1 { "iteration" } else { "iterations" },
+            iterations = if self.newton_iterations == 1 {
+                "iteration"
+            } else {
+                "iterations"
+            },
             disp = self.displacement,
             ks = self.kkt_stationarity,
             kf = self.kkt_feasibility,
