@@ -705,6 +705,31 @@ fn group_closed_pattern(
     // For the current group: the later groups touched, and how far into each.
     let mut reach = vec![NONE; members.len()];
     let mut touched: Vec<usize> = Vec::new();
+    // Two passes: the first only counts the pairs, so that `upper` (millions of pairs on a
+    // fine mesh) is allocated once instead of growing by copies.
+    let mut count = 0;
+    for (g, m) in members.iter().enumerate() {
+        count += m.len() * (m.len() + 1) / 2;
+        for &i in m {
+            for &w in adj.row(i) {
+                let gw = group[w];
+                if gw > g {
+                    if reach[gw] == NONE {
+                        touched.push(gw);
+                        reach[gw] = pos[w];
+                    } else {
+                        reach[gw] = reach[gw].max(pos[w]);
+                    }
+                }
+            }
+        }
+        for &gw in &touched {
+            count += (reach[gw] + 1) * m.len();
+            reach[gw] = NONE;
+        }
+        touched.clear();
+    }
+    upper.reserve(count);
     for (g, m) in members.iter().enumerate() {
         for &i in m {
             for &j in m {
