@@ -702,13 +702,16 @@ fn group_closed_pattern(
             pos[i] = k;
         }
     }
-    // For the current group: the later groups touched, and how far into each.
+    // For every group: the later groups its members touch, and how far into each (found
+    // once; the pairs are then counted, so that `upper`, millions of pairs on a fine mesh,
+    // is allocated once instead of growing by copies).
     let mut reach = vec![NONE; members.len()];
     let mut touched: Vec<usize> = Vec::new();
-    // Two passes: the first only counts the pairs, so that `upper` (millions of pairs on a
-    // fine mesh) is allocated once instead of growing by copies.
+    let mut reaches: Vec<(usize, usize)> = Vec::new();
+    let mut first = Vec::with_capacity(members.len() + 1);
     let mut count = 0;
     for (g, m) in members.iter().enumerate() {
+        first.push(reaches.len());
         count += m.len() * (m.len() + 1) / 2;
         for &i in m {
             for &w in adj.row(i) {
@@ -725,10 +728,12 @@ fn group_closed_pattern(
         }
         for &gw in &touched {
             count += (reach[gw] + 1) * m.len();
+            reaches.push((gw, reach[gw]));
             reach[gw] = NONE;
         }
         touched.clear();
     }
+    first.push(reaches.len());
     upper.reserve(count);
     for (g, m) in members.iter().enumerate() {
         for &i in m {
@@ -737,27 +742,14 @@ fn group_closed_pattern(
                     upper.push((i, j));
                 }
             }
-            for &w in adj.row(i) {
-                let gw = group[w];
-                if gw > g {
-                    if reach[gw] == NONE {
-                        touched.push(gw);
-                        reach[gw] = pos[w];
-                    } else {
-                        reach[gw] = reach[gw].max(pos[w]);
-                    }
-                }
-            }
         }
-        for &gw in &touched {
-            for &r in &members[gw][..=reach[gw]] {
+        for &(gw, last) in &reaches[first[g]..first[g + 1]] {
+            for &r in &members[gw][..=last] {
                 for &j in m {
                     upper.push((r.max(j), r.min(j)));
                 }
             }
-            reach[gw] = NONE;
         }
-        touched.clear();
     }
 }
 
