@@ -67,9 +67,11 @@ impl OcpProblem for Quadratic {
 }
 
 /// A nonlinear, explicitly time-dependent problem (n = 2, m = 1) for derivative checks:
-/// `f = [x₂, u − sin x₁ + 0.3 t x₁]`, `L = u²/2 + x₁² cos(t)/2 + 0.1 x₂ u² + δ`.
+/// `f = [x₂, u − sin x₁ + 0.3 t x₁]`, `L = u²/2 + x₁² cos(t)/2 + 0.1 x₂ u² + δ`; with
+/// `path`, the path constraint `g = x₁ u + 0.2 sin(t) x₂ − 0.1 = 0` (nonlinear, time-dependent).
 struct Pendulum {
     delta: f64,
+    path: bool,
 }
 
 impl OcpProblem for Pendulum {
@@ -97,8 +99,18 @@ impl OcpProblem for Pendulum {
             -0.5 * x1 * x1 * t.sin(),
         )
     }
+    fn n_path(&self) -> usize {
+        usize::from(self.path)
+    }
+    fn path(&self, t: f64, z: &[f64], g: &mut [f64], g_z: &mut [f64], g_t: &mut [f64]) {
+        let (x1, x2, u) = (z[0], z[1], z[2]);
+        g[0] = x1 * u + 0.2 * t.sin() * x2 - 0.1;
+        g_z.copy_from_slice(&[u, 0.2 * t.sin(), x1]);
+        g_t[0] = 0.2 * t.cos() * x2;
+    }
     fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lam: &[f64], h: &mut [f64]) {
         let (x1, x2, u) = (z[0], z[1], z[2]);
+        assert_eq!(lam.len(), 2 + self.n_path(), "λ then μ");
         h.fill(0.0);
         let mut set = |r: usize, c: usize, v: f64| {
             h[r * 4 + c] += v;
@@ -111,6 +123,12 @@ impl OcpProblem for Pendulum {
         set(1, 2, 0.2 * w * u);
         set(2, 2, w * (1.0 + 0.2 * x2));
         set(3, 3, -0.5 * w * x1 * x1 * t.cos());
+        if self.path {
+            let mu = lam[2];
+            set(0, 2, mu);
+            set(1, 3, 0.2 * mu * t.cos());
+            set(3, 3, -0.2 * mu * t.sin() * x2);
+        }
     }
 }
 
@@ -162,11 +180,12 @@ fn pendulum_transcription(p: &Pendulum, free: bool) -> Transcription<'_, Pendulu
 
 #[test]
 fn nlp_derivatives_match_finite_differences() {
-    let prob = Pendulum { delta: 0.2 };
     let mut rng = Rng(0x9e3779b97f4a7c15);
     let mut worst = [0.0_f64; 3];
-    for free in [false, true] {
+    for (free, path) in [(false, false), (true, false), (false, true), (true, true)] {
+        let prob = Pendulum { delta: 0.2, path };
         let tr = pendulum_transcription(&prob, free);
+        assert_eq!(tr.n_path(), usize::from(path));
         let (nv, nc) = (tr.n_var(), tr.n_con());
         for _ in 0..3 {
             let mut v: Vec<f64> = (0..nv).map(|_| rng.uniform(-1.0, 1.0)).collect();
@@ -212,7 +231,10 @@ fn nlp_derivatives_match_finite_differences() {
 
 #[test]
 fn inertia_and_margin_match_a_dense_null_space_computation() {
-    let prob = Pendulum { delta: 0.2 };
+    let prob = Pendulum {
+        delta: 0.2,
+        path: false,
+    };
     let mut rng = Rng(12345);
     let opts = SecondOrderOptions {
         margin_rtol: 1e-6,
@@ -527,7 +549,10 @@ fn sqp_does_not_stop_at_a_saddle() {
 /// tolerance allows).
 #[test]
 fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
-    let p = Pendulum { delta: 0.0 };
+    let p = Pendulum {
+        delta: 0.0,
+        path: false,
+    };
     let boundary = Boundary {
         start: vec![(0, 0.0), (1, 0.0)],
         end: vec![(0, 1.0), (1, 0.0)],

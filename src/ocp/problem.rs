@@ -2,13 +2,13 @@
 //!
 //! ```text
 //! minimize   J = ∫_{t0}^{t0+T} L(t, x, u) dt
-//! subject to x' = f(t, x, u),
+//! subject to x' = f(t, x, u),  g(t, x, u) = 0 (optional path constraints),
 //!            x_i(t0) = a_i (i ∈ fixed start components),  x_j(t0 + T) = b_j (j ∈ fixed end),
 //!            T fixed or free.
 //! ```
 //!
 //! `n` states, `m` controls; `z = [x, u]` has `nz = n + m` entries. A problem supplies values,
-//! first derivatives and the Hessian of the *point Lagrangian* `ℓ = w L + λᵀ f`; everything
+//! first derivatives and the Hessian of the *point Lagrangian* `ℓ = w L + λᵀ f (+ μᵀ g)`; everything
 //! else (the discretization, the KKT conditions, the second-order check) is generic.
 
 /// The problem functions. All matrices are row-major slices.
@@ -24,9 +24,20 @@ pub trait OcpProblem {
     /// The running cost at time `t`: returns `(L, ∂L/∂t)` and writes `∂L/∂z` (`nz`).
     fn running_cost(&self, t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64);
 
-    /// The Hessian of `ℓ = w L(t, z) + Σ_i λ_i f_i(t, z)` with respect to `(z, t)`:
-    /// `(nz + 1) × (nz + 1)`, symmetric, the time derivative last.
+    /// The Hessian of `ℓ = w L(t, z) + Σ_i λ_i f_i(t, z) + Σ_j μ_j g_j(t, z)` with respect to
+    /// `(z, t)`: `(nz + 1) × (nz + 1)`, symmetric, the time derivative last. `lambda` holds
+    /// the `n` dynamics multipliers `λ`, then the [`Self::n_path`] path multipliers `μ`.
     fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]);
+
+    /// The number of path constraints `g(t, z) = 0`, imposed at every collocation point
+    /// (none by default).
+    fn n_path(&self) -> usize {
+        0
+    }
+
+    /// The path constraints at time `t`: `g` (`n_path`), `∂g/∂z` (`n_path × nz`), `∂g/∂t`
+    /// (`n_path`). Called only when [`Self::n_path`] is positive.
+    fn path(&self, _t: f64, _z: &[f64], _g: &mut [f64], _g_z: &mut [f64], _g_t: &mut [f64]) {}
 }
 
 /// The interval: start time and a fixed or free length `T`.

@@ -12,10 +12,11 @@
 //! v = [ z_0 | z_1 | … | z_{P−1} | T (only if free) ],   z_p = [x_p, u_p]
 //! ```
 //!
-//! Constraints (`n_con = 3 N n + #start + #start_linear + #end`), in this order:
+//! Constraints (`n_con = 3 N n + P n_g + #start + #start_linear + #end`), in this order:
 //!
 //! ```text
 //! c_{k,i} = x_{3k+i} − x_{3k} − T h_k Σ_j a_ij f(t_{3k+j}, z_{3k+j}),   i = 1, 2, 3
+//! T g(t_p, z_p)      the n_g path constraints at every point p
 //! x_i(p = 0) − a_i   for the prescribed start components
 //! Σ c_i x_i(p = 0) − v for the linear start conditions
 //! x_j(p = P−1) − b_j for the prescribed end components
@@ -25,12 +26,16 @@
 //!
 //! # Lagrangian and its Hessian
 //!
-//! `ℒ = J + Σ ν_{k,i}·c_{k,i} + Σ μ·bc`. Grouping by point, `ℒ = T Σ_p ℓ_p(t_p, z_p) +`
-//! (terms linear in `v`) with `ℓ_p = ω_p L + λ_pᵀ f`, the *point weights*
+//! `ℒ = J + Σ ν_{k,i}·c_{k,i} + Σ μ_p·T g_p + Σ μ·bc`. Grouping by point,
+//! `ℒ = T Σ_p ℓ_p(t_p, z_p) +` (terms linear in `v`) with `ℓ_p = ω_p L + λ_pᵀ f + μ_pᵀ g`, the
+//! *point weights*
 //!
 //! ```text
 //! ω_p = Σ_{(k,j) ∋ p} h_k b_j,      λ_p = − Σ_{(k,j) ∋ p} h_k Σ_i a_ij ν_{k,i}.
 //! ```
+//!
+//! (The path rows are scaled by `T` — the same feasible set — so that they join the point
+//! Lagrangian like the dynamics, and the derivatives in `T` below cover them too.)
 //!
 //! Hence the Hessian is block diagonal in the points, bordered by `T`:
 //! `∂²ℒ/∂z_p² = T ∂²ℓ_p/∂z²`, `∂²ℒ/∂z_p∂T = ∂ℓ_p/∂z + T s_p ∂²ℓ_p/∂z∂t`,
@@ -54,6 +59,8 @@ pub struct Transcription<'a, P: OcpProblem + ?Sized> {
     tab: Tableau,
     n: usize,
     m: usize,
+    /// Path constraints per point.
+    n_g: usize,
 }
 
 /// Why a transcription cannot be built.
@@ -113,6 +120,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             tab: Tableau::lobatto_iiia4(),
             n,
             m: problem.n_control(),
+            n_g: problem.n_path(),
         })
     }
 
@@ -148,7 +156,17 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
 
     /// Number of equality constraints.
     pub fn n_con(&self) -> usize {
-        3 * self.n_intervals() * self.n + self.n_start_rows() + self.boundary.end.len()
+        self.path_row(self.n_points()) + self.n_start_rows() + self.boundary.end.len()
+    }
+
+    /// Number of path constraints per point.
+    pub fn n_path(&self) -> usize {
+        self.n_g
+    }
+
+    /// The first row of point `p`'s path constraints (`p = P`: the first row after them).
+    fn path_row(&self, p: usize) -> usize {
+        3 * self.n_intervals() * self.n + p * self.n_g
     }
 
     /// Number of conditions at the start (prescribed components, then linear conditions).
@@ -329,7 +347,18 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 }
             }
         }
-        let mut row = 3 * self.n_intervals() * n;
+        if self.n_g > 0 {
+            let (mut g_z, mut g_t) = (vec![0.0; self.n_g * nz], vec![0.0; self.n_g]);
+            for p in 0..self.n_points() {
+                let row = self.path_row(p);
+                let g = &mut c[row..row + self.n_g];
+                let z = &v[p * nz..(p + 1) * nz];
+                self.problem
+                    .path(self.point_time(p, t_len), z, g, &mut g_z, &mut g_t);
+                g.iter_mut().for_each(|gi| *gi *= t_len);
+            }
+        }
+        let mut row = self.path_row(self.n_points());
         let last = (self.n_points() - 1) * nz;
         for &(comp, val) in &self.boundary.start {
             c[row] = v[comp] - val;
@@ -389,7 +418,26 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 }
             }
         }
-        let mut row = 3 * self.n_intervals() * n;
+        if self.n_g > 0 {
+            let ng = self.n_g;
+            let (mut g, mut g_z, mut g_t) = (vec![0.0; ng], vec![0.0; ng * nz], vec![0.0; ng]);
+            for p in 0..self.n_points() {
+                let s = self.point_s(p);
+                let z = &v[p * nz..(p + 1) * nz];
+                self.problem
+                    .path(self.point_time(p, t_len), z, &mut g, &mut g_z, &mut g_t);
+                for r in 0..ng {
+                    let row = self.path_row(p) + r;
+                    for col in 0..nz {
+                        out.push((row, p * nz + col, t_len * g_z[r * nz + col]));
+                    }
+                    if let Some(tc) = t_col {
+                        out.push((row, tc, g[r] + t_len * s * g_t[r]));
+                    }
+                }
+            }
+        }
+        let mut row = self.path_row(self.n_points());
         let last = (self.n_points() - 1) * nz;
         for &(comp, _) in &self.boundary.start {
             out.push((row, comp, 1.0));
@@ -416,20 +464,26 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let omega = self.quadrature_weights();
         let lam = self.point_multipliers(y);
         let t_col = self.length_index();
+        let (ng, nm) = (self.n_g, n + self.n_g);
         let d = nz + 1;
         let mut hess = vec![0.0; d * d];
         let mut l_z = vec![0.0; nz];
         let mut f = vec![0.0; n];
         let mut f_z = vec![0.0; n * nz];
         let mut f_t = vec![0.0; n];
+        let (mut g, mut g_z, mut g_t) = (vec![0.0; ng], vec![0.0; ng * nz], vec![0.0; ng]);
+        // [λ_p, μ_p] of the point being assembled.
+        let mut lp = vec![0.0; nm];
         let mut out = Vec::with_capacity(self.n_points() * (nz * (nz + 1) / 2 + nz) + 1);
         let mut d_tt = 0.0;
         for p in 0..self.n_points() {
             let (s, t) = (self.point_s(p), self.point_time(p, t_len));
             let z = &v[p * nz..(p + 1) * nz];
-            let lp = &lam[p * n..(p + 1) * n];
+            lp[..n].copy_from_slice(&lam[p * n..(p + 1) * n]);
+            let path_rows = self.path_row(p)..self.path_row(p) + ng;
+            lp[n..].copy_from_slice(&y[path_rows]);
             self.problem
-                .lagrangian_hessian(t, z, omega[p], lp, &mut hess);
+                .lagrangian_hessian(t, z, omega[p], &lp, &mut hess);
             for r in 0..nz {
                 for c in 0..=r {
                     // Zeros are kept: the pattern is the same at every point (the KKT
@@ -441,14 +495,23 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 // ℓ_z and ℓ_t of this point.
                 let (_, l_t) = self.problem.running_cost(t, z, &mut l_z);
                 self.problem.dynamics(t, z, &mut f, &mut f_z, &mut f_t);
+                if ng > 0 {
+                    self.problem.path(t, z, &mut g, &mut g_z, &mut g_t);
+                }
                 let mut ell_t = omega[p] * l_t;
                 for r in 0..n {
                     ell_t += lp[r] * f_t[r];
+                }
+                for r in 0..ng {
+                    ell_t += lp[n + r] * g_t[r];
                 }
                 for c in 0..nz {
                     let mut ell_z = omega[p] * l_z[c];
                     for r in 0..n {
                         ell_z += lp[r] * f_z[r * nz + c];
+                    }
+                    for r in 0..ng {
+                        ell_z += lp[n + r] * g_z[r * nz + c];
                     }
                     out.push((tc, p * nz + c, ell_z + t_len * s * hess[c * d + nz]));
                 }
@@ -463,8 +526,9 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
 
     /// Pivot groups of the KKT matrix `[[H, Aᵀ], [A, 0]]` (unknowns `0..n_var`, then
     /// constraints), in elimination order, for [`super::inertia::SymmetricPattern::with_groups`]:
-    /// first `z_0` with the start conditions; then, interval by interval, its `3n`
-    /// collocation constraints with the unknowns of its three new points; last `T` and the
+    /// first `z_0` with its path constraints and the start conditions; then, interval by
+    /// interval, its `3n` collocation constraints and the path constraints of its three new
+    /// points with the unknowns of those points; last `T` and the
     /// end conditions. The constraints come first in their group because they are all that an
     /// earlier group touches (through the interval's first point, `z_{3k}`), and `T` first
     /// in the last: the factor of a group then reaches into the next one only by its
@@ -477,12 +541,14 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let (n, nz, nv) = (self.n, self.nz(), self.n_var());
         let n_int = self.n_intervals();
         let mut groups = Vec::with_capacity(n_int + 2);
-        let start_rows = nv + 3 * n_int * n;
+        let start_rows = nv + self.path_row(self.n_points());
         let mut first: Vec<usize> = (0..nz).collect();
+        first.extend(nv + self.path_row(0)..nv + self.path_row(1));
         first.extend(start_rows..start_rows + self.n_start_rows());
         groups.push(first);
         for k in 0..n_int {
             let mut g: Vec<usize> = (nv + 3 * k * n..nv + 3 * (k + 1) * n).collect();
+            g.extend(nv + self.path_row(3 * k + 1)..nv + self.path_row(3 * k + 4));
             g.extend((3 * k + 1) * nz..(3 * k + 4) * nz);
             groups.push(g);
         }
