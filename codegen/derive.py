@@ -329,8 +329,8 @@ class DirectTranscription:
         nz = len(self.Z)
         return J[0, :nz].T, J[0, nz:].T
 
-    def lagrangian_hessian(self, prog, f, check_points=3, seed=7):
-        """The Hessian of l = w L + <lam, f> w.r.t. v = [z, Om_d] (4n x 4n), symmetric.
+    def lagrangian_hessian(self, prog, f, check_points=3, seed=7, extra=0):
+        """The Hessian of l = w L + <lam, f> (+ `extra`) w.r.t. v = [z, Om_d], symmetric.
 
         Forward over forward: the gradient is a Jacobian through the program (prefix d), the
         Hessian the Jacobian of that gradient (prefix dd). H[i][j] = d/dv_j (dl/dv_i) and
@@ -340,7 +340,7 @@ class DirectTranscription:
         """
         M = self.M
         v = self.Z + list(M.Om_d)
-        ell = self.W * self.C + sum(l * e for l, e in zip(self.LAM, f))
+        ell = self.W * self.C + sum(l * e for l, e in zip(self.LAM, f)) + extra
         grad_ = prog.jacobian([ell], v, prefix="d")
         H = prog.jacobian(list(grad_), v, prefix="dd")
         n = len(v)
@@ -360,3 +360,48 @@ class DirectTranscription:
             if bad:
                 raise AssertionError(f"Hessian of the point Lagrangian is not symmetric at {bad}")
         return sp.Matrix(n, n, lambda i, j: H[min(i, j), max(i, j)])
+
+
+class MultiplierTranscription(DirectTranscription):
+    """The OCP with the constraint force's multiplier as a control (the unreduced form).
+
+    State x = [Om, xi], control u = [xi_dot, lambda], z = [Om, xi, xi_dot, lambda] (`Z`).
+    Dynamics f(z) = [I^-1 (ad*_Om I Om + lambda xi); xi_dot] (Euler-Poincare-Suslov with the
+    force lambda xi, no division: polynomial in z, defined at xi = 0); running cost
+    L(z, Om_d) = C(Om, f_Om, xi, xi_dot, Om_d). The constraint is not built into f: the
+    transcription imposes it at the points as path constraints g(z) = [phi, d/dt phi] (phi =
+    <Om, xi> - gamma(xi); d/dt phi = <dphi/dOm, f_Om> + <dphi/dxi, xi_dot>), of which a caller
+    uses one (the other's multiplier is 0). The Hessian is that of
+    l = w L + <lam, f> + <mu, g>.
+
+    With lambda free and phi = 0 imposed, xi may pass through 0 (lambda xi stays finite), which
+    the lambda-eliminated form (`DirectTranscription`, singular where <xi, I^-1 xi> = 0)
+    cannot represent; this is the formulation of bench/casadi_direct.py.
+    """
+
+    def __init__(self, opt):
+        super().__init__(opt)
+        M = self.M
+        self.LAMBDA = self.suslov.lam_symbol
+        self.Z = list(M.Om) + list(M.xi) + list(M.xiDot) + [self.LAMBDA]
+        self.MU = list(sp.symbols("mu1:3", real=True))  # multipliers of [phi, d/dt phi]
+
+    def program(self, extra_inputs=()):
+        """A program over z, Om_d (and `extra_inputs`) whose first assignments are
+        Om_dot = f_Om(z). Returns (program, f) with f the 2n dynamics entries."""
+        M = self.M
+        prog = Program(self.Z + list(M.Om_d) + list(extra_inputs), M.PARAMS)
+        om_dot = prog.let(list(M.OmDot), self.suslov.omdot_of_lam)
+        return prog, list(om_dot) + list(M.xiDot)
+
+    def path(self):
+        """g(z) = [phi, d/dt phi], in the program's symbols (Om_dot assigned)."""
+        s, M = self.suslov, self.M
+        phi = M.constraint(M.Om, M.xi)
+        dphi = dot(s.gphi_om, M.OmDot) + dot(s.gphi_xi, M.xiDot)
+        return [phi, dphi]
+
+    def lagrangian_hessian(self, prog, f, check_points=3, seed=7):
+        """As `DirectTranscription.lagrangian_hessian`, with <mu, g> in the point Lagrangian."""
+        return super().lagrangian_hessian(prog, list(f), check_points, seed,
+                                          extra=sum(m * g for m, g in zip(self.MU, self.path())))

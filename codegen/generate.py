@@ -362,6 +362,55 @@ def build_functions(opt):
              "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
          Out("h_dd", H[nz:, nz:], "matrix", "d2l/dOmega_d2")]))
 
+    # ---- the multiplier form: lambda a control, the constraint a path constraint ----------
+    mt = D.MultiplierTranscription(opt)
+
+    def lambda_sample(rng, i):
+        return rng.uniform(-2.0, 2.0) if i == 3 * n else state_sample(rng, i)
+
+    zl_arg = Arg("z", mt.Z, "[x, u] = [Omega, xi, xi', lambda] (state x = [Omega, xi], control "
+                 "u = [xi', lambda])", lambda_sample)
+    prog, f = mt.program()
+    g = mt.path()
+    fg_z = prog.jacobian(list(f) + g, mt.Z)  # one forward pass for f and g
+    fns.append(Function(
+        "multiplier_dynamics",
+        "The dynamics of the multiplier form, x' = f(z) = [I^-1 (ad*_Omega I Omega + lambda xi);\n"
+        "xi'] (no division: defined at xi = 0), its Jacobian df/dz, and the path constraints\n"
+        "g(z) = [phi, d/dt phi] (phi = <Omega, xi> - gamma(xi)) with dg/dz.",
+        prog, [zl_arg, p_arg],
+        [Out("f", sp.Matrix(f), "array", f"f(z), {len(f)} entries"),
+         Out("f_z", fg_z[:len(f), :], "matrix",
+             "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j"),
+         Out("g", sp.Matrix(g), "array", "g(z) = [phi, d/dt phi]"),
+         Out("g_z", fg_z[len(f):, :], "matrix", "dg/dz, row-major")]))
+    prog, f = mt.program()
+    l_z, l_d = mt.cost_gradient(prog)
+    fns.append(Function(
+        "multiplier_cost",
+        "The running cost of the multiplier form, L(z, Omega_d) = C(Omega, f_Omega, xi, xi',\n"
+        "Omega_d), and its gradients.",
+        prog, [zl_arg, p_arg, od_arg],
+        [Out("l_z", l_z, "array", "dL/dz"),
+         Out("l_d", l_d, "array", "dL/dOmega_d"),
+         Out("value", mt.C, "return", "L")]))
+    prog, f = mt.program([mt.W] + mt.LAM + mt.MU)
+    H = mt.lagrangian_hessian(prog, f)
+    nzl = len(mt.Z)
+    fns.append(Function(
+        "multiplier_hessian",
+        "Second derivatives of the point Lagrangian l = w L + sum_i lam_i f_i + mu_1 phi +\n"
+        "mu_2 d/dt phi of the multiplier form. Exactly symmetric.",
+        prog, [zl_arg, p_arg, od_arg,
+               Scalar(mt.W, "the weight w of the running cost L", u(0.1, 2.0)),
+               Arg("lam", mt.LAM, "the multipliers of the dynamics rows f_i", u(-2.0, 2.0)),
+               Arg("mu", mt.MU, "the multipliers of the path constraints [phi, d/dt phi]",
+                   u(-2.0, 2.0))],
+        [Out("h_zz", H[:nzl, :nzl], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
+         Out("h_zd", H[:nzl, nzl:], "matrix",
+             "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
+         Out("h_dd", H[nzl:, nzl:], "matrix", "d2l/dOmega_d2")]))
+
     # ---- the inertia operator (callers invert it to fill INERTIA_INVERSE_SLOTS) -----------
     prog = Program([], M.PARAMS)
     fns.append(Function(

@@ -3,7 +3,9 @@
 //! * every Jacobian against central finite differences of the function it differentiates
 //!   (`ode_jac_scaled`, `bc_endpoint_jac`, `bc_start_constrained_jac` (in `y` and `μ`),
 //!   `constraint_residual`'s gradient, `free_time_condition_jac`, `direct_dynamics`'s
-//!   `f_z`, `direct_cost`'s gradients, `direct_hessian`, and the Lie brackets of
+//!   `f_z`, `direct_cost`'s gradients, `direct_hessian`, the multiplier form's
+//!   `multiplier_dynamics`, `multiplier_cost` and `multiplier_hessian` (which on the
+//!   constraint, with Suslov's `λ`, also reproduce the reduced form), and the Lie brackets of
 //!   `lie_brackets` against finite differences of `control_fields`);
 //! * Suslov's equations keep the constraint and balance the energy: on `φ = ⟨Ω, ξ⟩ − γ(ξ) = 0`,
 //!   `dφ/dt = 0` and `d/dt ½⟨IΩ, Ω⟩ = λ⟨Ω, ξ⟩` (`= 0` for a model without a constraint value);
@@ -361,6 +363,106 @@ macro_rules! model_checks {
                         assert!(close(h_zz[i][j], col[i], 1e-5), "h_zz[{i}][{j}]");
                         assert_eq!(h_zz[i][j], h_zz[j][i], "symmetric");
                     }
+                }
+            }
+
+            /// The multiplier form (`λ` a control, the constraint as path rows): every
+            /// derivative against finite differences, and on the constraint, with Suslov's
+            /// `λ`, the same dynamics and cost as the reduced (λ-eliminated) form, `φ = 0` and
+            /// `dφ/dt = 0`.
+            #[test]
+            fn multiplier_form_matches_the_reduced_form_and_finite_differences() {
+                const NZ: usize = 3 * DIM + 1;
+                const NX: usize = 2 * DIM;
+                let mut rng = Rng(11);
+                for _ in 0..3 {
+                    let p = params(&mut rng);
+                    let y = state(&mut rng);
+                    let mut z = [0.0; NZ];
+                    z[..NZ - 1].copy_from_slice(&y[..NZ - 1]);
+                    z[NZ - 1] = rng.uniform(-1.5, 1.5);
+                    let od: [f64; DIM] = vec_of(&mut rng);
+                    let lam: [f64; NX] = vec_of(&mut rng);
+                    let mu: [f64; 2] = vec_of(&mut rng);
+                    let wgt = rng.uniform(0.5, 1.5);
+                    let eval = |z: &[f64; NZ]| {
+                        let (mut f, mut f_z) = ([0.0; NX], [[0.0; NZ]; NX]);
+                        let (mut g, mut g_z) = ([0.0; 2], [[0.0; NZ]; 2]);
+                        multiplier_dynamics(z, &p, &mut f, &mut f_z, &mut g, &mut g_z);
+                        (f, f_z, g, g_z)
+                    };
+                    let (_, f_z, _, g_z) = eval(&z);
+                    let cols = fd(&z, |z| eval(z).0);
+                    let g_cols = fd(&z, |z| eval(z).2);
+                    let mut l_z = [0.0; NZ];
+                    let mut l_d = [0.0; DIM];
+                    multiplier_cost(&z, &p, &od, &mut l_z, &mut l_d);
+                    let l_cols = fd(&z, |z| {
+                        let (mut a, mut b) = ([0.0; NZ], [0.0; DIM]);
+                        [multiplier_cost(z, &p, &od, &mut a, &mut b)]
+                    });
+                    let mut h_zz = [[0.0; NZ]; NZ];
+                    let mut h_zd = [[0.0; DIM]; NZ];
+                    let mut h_dd = [[0.0; DIM]; DIM];
+                    multiplier_hessian(
+                        &z, &p, &od, wgt, &lam, &mu, &mut h_zz, &mut h_zd, &mut h_dd,
+                    );
+                    let h_cols = fd(&z, |z| {
+                        let (mut lz, mut ld) = ([0.0; NZ], [0.0; DIM]);
+                        multiplier_cost(z, &p, &od, &mut lz, &mut ld);
+                        let (_, fz, _, gz) = eval(z);
+                        let mut grad = [0.0; NZ];
+                        for j in 0..NZ {
+                            grad[j] = wgt * lz[j]
+                                + (0..NX).map(|i| lam[i] * fz[i][j]).sum::<f64>()
+                                + (0..2).map(|i| mu[i] * gz[i][j]).sum::<f64>();
+                        }
+                        grad
+                    });
+                    for j in 0..NZ {
+                        for i in 0..NX {
+                            assert!(close(f_z[i][j], cols[j][i], RTOL), "f{i}/z{j}");
+                        }
+                        for i in 0..2 {
+                            assert!(close(g_z[i][j], g_cols[j][i], RTOL), "g{i}/z{j}");
+                        }
+                        assert!(close(l_z[j], l_cols[j][0], RTOL), "L/z{j}");
+                        for i in 0..NZ {
+                            assert!(close(h_zz[i][j], h_cols[j][i], 1e-5), "h_zz[{i}][{j}]");
+                            assert_eq!(h_zz[i][j], h_zz[j][i], "symmetric");
+                        }
+                    }
+                    // On the constraint, with Suslov's λ: the reduced form's numbers.
+                    let mut x = [0.0; 3 * DIM];
+                    x.copy_from_slice(&z[..3 * DIM]);
+                    let mut grad = [0.0; 2 * DIM];
+                    let phi0 =
+                        constraint_residual(&x[..2 * DIM].try_into().unwrap(), &p, &mut grad);
+                    let xi2 = (0..DIM).map(|k| x[DIM + k] * x[DIM + k]).sum::<f64>();
+                    for k in 0..DIM {
+                        x[k] -= phi0 / xi2 * x[DIM + k];
+                    }
+                    let mut om_dot = [0.0; DIM];
+                    let lambda = suslov_omega_dot(&x, &p, &mut om_dot);
+                    z[..3 * DIM].copy_from_slice(&x);
+                    z[NZ - 1] = lambda;
+                    let (f, _, g, _) = eval(&z);
+                    let (mut f_red, mut f_red_z) = ([0.0; NX], [[0.0; 3 * DIM]; NX]);
+                    direct_dynamics(&x, &p, &mut f_red, &mut f_red_z);
+                    for i in 0..NX {
+                        assert!(
+                            close(f[i], f_red[i], 1e-12),
+                            "f{i}: {} vs {}",
+                            f[i],
+                            f_red[i]
+                        );
+                    }
+                    assert!(g[0].abs() < 1e-12 && g[1].abs() < 1e-12, "g = {g:?}");
+                    let (mut a, mut b) = ([0.0; NZ], [0.0; DIM]);
+                    let (mut c, mut d) = ([0.0; 3 * DIM], [0.0; DIM]);
+                    let l_m = multiplier_cost(&z, &p, &od, &mut a, &mut b);
+                    let l_r = direct_cost(&x, &p, &od, &mut c, &mut d);
+                    assert!(close(l_m, l_r, 1e-12), "L: {l_m} vs {l_r}");
                 }
             }
 
