@@ -168,3 +168,30 @@ fn fast_119_is_solved_by_the_direct_start_on_the_finer_mesh() {
     assert!(((cost - 114.8380278) / 114.8380278).abs() < 1e-6, "{cost}");
     assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
 }
+
+/// issue12-080 (γ = 0) from its problem file alone, default settings: every continuation
+/// route stops, and the direct start in the reduced form stops at a failed inertia correction
+/// on both meshes; in the multiplier form (`λ` a control, `φ = 0` at every point) the SQP
+/// reaches the regular minimum IPOPT finds, and the BVP takes it up: verified, at IPOPT's
+/// cost (0.002548219), |ξ| near 1.
+#[test]
+fn issue12_080_is_solved_by_the_direct_start_in_the_multiplier_form() {
+    use suslov::lie::solve::DIRECT_START_ROUTE;
+    let loaded = suslov::config::load(&hard("issue12_080_missed_regular.toml")).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let last = sol.routes.last().unwrap();
+    assert_eq!(
+        (last.route, last.stopped.as_deref()),
+        (DIRECT_START_ROUTE, None)
+    );
+    let verified = lie::verify_solution(&sol);
+    assert!(
+        verified.verification.passed(),
+        "{:?}",
+        verified.verification
+    );
+    let cost = verified.diagnostics.cost;
+    assert!(((cost - 0.002548219) / 0.002548219).abs() < 1e-6, "{cost}");
+    assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
+}

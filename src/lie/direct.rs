@@ -11,26 +11,37 @@
 //! *start* alone does not reach them (session 12's probe in `bench/README.md`): IPOPT gets
 //! there by its globalisation, which minimizes the cost rather than solving the optimality
 //! conditions. [`crate::ocp::sqp()`] is that globalisation (inertia correction, a filter line
-//! search, feasibility restoration) on the problem's own transcription ([`super::certify::LieOcp`]:
-//! state `[Ω, ξ]`, control `ξ̇`, every derivative generated from the model file).
+//! search, feasibility restoration) on one of two transcriptions of the problem
+//! ([`DirectForm`]), every derivative generated from the model file:
+//!
+//! - the **reduced form** ([`super::certify::LieOcp`]): state `[Ω, ξ]`, control `ξ̇`, Suslov's
+//!   `Ω̇ = F(Ω, ξ, ξ̇)` with `λ` eliminated (it divides by `⟨ξ, 𝕀⁻¹ξ⟩`);
+//! - the **multiplier form** ([`super::multiplier::MultiplierOcp`]): control `[ξ̇, λ]`,
+//!   `Ω̇ = 𝕀⁻¹(ad*_Ω 𝕀Ω + λξ)`, and the constraint imposed at every point; nothing divides,
+//!   so the SQP can pass where `ξ` nears 0 (corpus problem issue12-080 is reached only this
+//!   way).
 //!
 //! # What it does
 //!
 //! 1. The start: the motion along the projected segment `Ω_a → Ω_b` over `[a, b]` (the
 //!    problem's `b`, or its guess when `b` is free), driven by its unit singular control
-//!    (`ξ = ξ̃/|ξ̃|`, `ξ̃ = 𝕀Ω̇ − ad*_Ω 𝕀Ω`, [`Model::singular_control`]), on a uniform mesh.
+//!    (`ξ = ξ̃/|ξ̃|`, `ξ̃ = 𝕀Ω̇ − ad*_Ω 𝕀Ω`, [`Model::singular_control`]), on a uniform mesh;
+//!    in the multiplier form `λ` is fitted to the motion's `Ω̇`
+//!    ([`MultiplierOcp::fit_lambda`]).
 //! 2. [`crate::ocp::sqp()`] at the problem's own weights, to [`DIRECT_TOLERANCE`].
 //! 3. The result, `[Ω, ξ, ξ̇]` at every collocation point with the costate `κ = 0` (the
 //!    direct method has none; the BVP solve recovers it), is a [`WarmStart`] for
 //!    [`super::solve::solve_from`]'s single BVP solve.
 //!
 //! A start whose SQP stops (the infimum is not attained and `ξ` collapses, the line search
-//! fails) is reported with the method's reason, not hidden.
+//! fails) is reported with the method's reason, not hidden; so is a minimum whose `ξ`
+//! collapses (its `min |ξ|` is in [`DirectStart`]).
 
 use crate::model::Model;
-use crate::ocp::{self, SqpOptions, SqpReport};
+use crate::ocp::{self, OcpProblem, SqpOptions, SqpReport, Transcription};
 
 use super::certify::{transcription_on, LieOcp};
+use super::multiplier::{self, MultiplierOcp, PathForm};
 use std::sync::Arc;
 
 use super::path::{projected_segment, EndBlend, Path, PathError, Projected};
@@ -41,8 +52,13 @@ use super::solve::WarmStart;
 /// follows sets the final accuracy; this only has to land in its basin.
 pub const DIRECT_TOLERANCE: f64 = 1e-6;
 
-/// Iteration limit of the SQP.
+/// Iteration limit of the SQP in the reduced form.
 pub const DIRECT_MAX_ITERATIONS: usize = 200;
+
+/// Iteration limit of the SQP in the multiplier form: its iterations are as cheap, and on
+/// corpus problem issue12-080 it needs 299 of them to the regular minimum (full steps with
+/// inertia corrections most of the way: the problem is far from convex at the start).
+pub const DIRECT_MULTIPLIER_MAX_ITERATIONS: usize = 400;
 
 /// The direct start of a problem: the warm start and what the SQP did.
 #[derive(Debug, Clone)]
@@ -126,35 +142,106 @@ fn guess_path<M: Model>(
     })
 }
 
+/// Which transcription the direct start minimizes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DirectForm {
+    /// The classical form with `λ` eliminated ([`LieOcp`]; singular where `ξ` vanishes).
+    Reduced,
+    /// The multiplier form ([`MultiplierOcp`]): `λ` a control, the constraint imposed at every
+    /// point in the given form; defined through `ξ = 0`.
+    Multiplier(PathForm),
+}
+
 /// The direct start of `problem` on a uniform mesh of `intervals` intervals, from the motion
-/// `guess` (module docs).
+/// `guess`, minimizing the reduced form (module docs).
 pub fn direct_start<M: Model>(
     problem: &Problem<M>,
     intervals: usize,
     guess: DirectGuess,
 ) -> Result<DirectStart, DirectError> {
+    direct_start_in(problem, intervals, guess, DirectForm::Reduced)
+}
+
+/// [`direct_start`] minimizing the transcription `form`.
+pub fn direct_start_in<M: Model>(
+    problem: &Problem<M>,
+    intervals: usize,
+    guess: DirectGuess,
+    form: DirectForm,
+) -> Result<DirectStart, DirectError> {
     if M::CONSTRAINT_VALUE_DEPENDS_ON_XI {
         return Err(DirectError::Unsupported);
     }
-    let n = M::DIM;
     let span = problem.terminal.initial() - problem.t0;
-    let segment =
-        guess_path(problem, guess, span).map_err(|e| DirectError::Start(e.to_string()))?;
-    let ocp_problem = LieOcp::<M>::for_problem(problem);
+    let start = guess_path(problem, guess, span).map_err(|e| DirectError::Start(e.to_string()))?;
     let intervals = intervals.max(1);
     let mesh: Vec<f64> = (0..=intervals)
         .map(|k| k as f64 / intervals as f64)
         .collect();
-    let tr = transcription_on(&ocp_problem, problem, mesh)?;
-    let params = problem.params();
+    match form {
+        DirectForm::Reduced => {
+            let ocp_problem = LieOcp::<M>::for_problem(problem);
+            let tr = transcription_on(&ocp_problem, problem, mesh)?;
+            minimize::<M, _>(
+                &tr,
+                problem.params(),
+                &*start,
+                guess,
+                span,
+                DIRECT_MAX_ITERATIONS,
+                |_, _| {},
+            )
+        }
+        DirectForm::Multiplier(path) => {
+            let ocp_problem = MultiplierOcp::<M>::for_problem(problem, path);
+            let tr = multiplier::transcription_on(&ocp_problem, problem, mesh)?;
+            let limit = DIRECT_MULTIPLIER_MAX_ITERATIONS;
+            minimize::<M, _>(
+                &tr,
+                problem.params(),
+                &*start,
+                guess,
+                span,
+                limit,
+                |z, omega_dot| ocp_problem.fit_lambda(z, omega_dot),
+            )
+        }
+    }
+}
+
+/// The SQP of the direct start on `tr`, whose points begin with `[Ω, ξ, ξ̇]`, from the motion
+/// `start` driven by its unit singular control; `complete(z, Ω̇)` fills the rest of a point.
+fn minimize<M: Model, P: OcpProblem>(
+    tr: &Transcription<'_, P>,
+    params: &[f64],
+    start: &dyn Path,
+    guess: DirectGuess,
+    span: f64,
+    max_iterations: usize,
+    mut complete: impl FnMut(&mut [f64], &[f64]),
+) -> Result<DirectStart, DirectError> {
+    let n = M::DIM;
+    let nz = tr.nz();
     let mut bad_time = None;
+    // ξ̃ may pass through 0 along the motion, where ξ̃/|ξ̃| flips; the motion only sees ξ up
+    // to sign (λ is odd in ξ, λξ even), so the sign is chosen to keep ξ continuous (the points
+    // come in time order).
+    let mut previous: Option<Vec<f64>> = None;
     let v0 = tr.primal_from_fn(span, |t, z| {
         with_buffer(6 * n, |buf| {
             let (jet, xi) = buf.split_at_mut(4 * n);
-            segment.jet_into(t, jet);
+            start.jet_into(t, jet);
             M::singular_control(&jet[..3 * n], params, xi);
+            if let Some(prev) = &previous {
+                let d: f64 = xi[..n].iter().zip(prev).map(|(a, b)| a * b).sum();
+                if d < 0.0 {
+                    xi.iter_mut().for_each(|v| *v = -*v);
+                }
+            }
+            previous = Some(xi[..n].to_vec());
             z[M::OMEGA].copy_from_slice(&jet[..n]);
             z[M::XI.start..M::XIDOT.end].copy_from_slice(xi);
+            complete(z, &jet[n..2 * n]);
         });
         if !z.iter().all(|v| v.is_finite()) && bad_time.is_none() {
             bad_time = Some(t);
@@ -167,28 +254,12 @@ pub fn direct_start<M: Model>(
             guess.describe()
         )));
     }
-    // ξ̃ may pass through 0 along the segment, where ξ̃/|ξ̃| flips; the motion only sees ξ up
-    // to sign (λ is odd in ξ, λξ even), so the sign is chosen to keep ξ continuous.
-    let nz = LieOcp::<M>::NZ;
-    let mut v0 = v0;
-    let mut previous: Option<Vec<f64>> = None;
-    for z in v0.chunks_exact_mut(nz).take(tr.n_points()) {
-        if let Some(prev) = &previous {
-            let d: f64 = z[M::XI].iter().zip(prev).map(|(a, b)| a * b).sum();
-            if d < 0.0 {
-                z[M::XI.start..M::XIDOT.end]
-                    .iter_mut()
-                    .for_each(|v| *v = -*v);
-            }
-        }
-        previous = Some(z[M::XI].to_vec());
-    }
     let options = SqpOptions {
         tolerance: DIRECT_TOLERANCE,
-        max_iterations: DIRECT_MAX_ITERATIONS,
+        max_iterations,
         ..SqpOptions::default()
     };
-    let (point, report) = ocp::sqp(&tr, v0, &options)?;
+    let (point, report) = ocp::sqp(tr, v0, &options)?;
     let t_len = tr.length(&point.v);
     let mut times = Vec::with_capacity(tr.n_points());
     let mut states = Vec::with_capacity(tr.n_points() * M::N_STATE);
@@ -196,7 +267,7 @@ pub fn direct_start<M: Model>(
     for (p, z) in point.v.chunks_exact(nz).take(tr.n_points()).enumerate() {
         times.push(tr.point_time(p, t_len));
         let start = states.len();
-        states.extend_from_slice(z);
+        states.extend_from_slice(&z[..M::KAPPA.start]); // [Ω, ξ, ξ̇]
         states.resize(start + M::N_STATE, 0.0); // κ = 0
         min_xi = min_xi.min(z[M::XI].iter().map(|v| v * v).sum::<f64>().sqrt());
     }

@@ -30,6 +30,7 @@ pub mod collapse;
 pub mod controllability;
 pub mod direct;
 pub mod expression;
+pub mod multiplier;
 pub mod path;
 pub mod problem;
 pub mod solve;

@@ -70,6 +70,8 @@ use crate::bvp::{self, Guess, Solution};
 use crate::continuation::{self, ContinuationStatus, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
+use super::direct::{DirectForm, DirectGuess};
+use super::multiplier::PathForm;
 use super::path::{projected_segment, EndBlend, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
@@ -1952,7 +1954,9 @@ const DIRECT_RETRY_FACTOR: usize = 2;
 
 /// The direct-start route: [`super::direct::direct_start`], then one BVP solve from it (as
 /// [`solve_from`]'s) and the a-posteriori checks; if that stops, all of it once more on a
-/// [`DIRECT_RETRY_FACTOR`] times finer mesh. The error gives both reasons.
+/// [`DIRECT_RETRY_FACTOR`] times finer mesh, and then on the first mesh in the multiplier
+/// form ([`super::multiplier`], `φ = 0` at every point), which passes where `ξ` nears 0. The
+/// error gives every attempt's reason.
 fn direct_route<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -1962,7 +1966,8 @@ fn direct_route<M: Model>(
     // When the first attempt stops, once more on a twice finer mesh: corpus problem fast-119
     // (|Omega_a| = 35 over b - a = 7.3) has, on 100 intervals, only a collapsed minimum
     // (min |xi| 0.001, cost 117.69), and on 200 the regular minimum IPOPT finds (114.838).
-    let first = match direct_attempt(problem, options, intervals, events) {
+    let reduced = DirectForm::Reduced;
+    let first = match direct_attempt(problem, options, intervals, reduced, events) {
         Ok(sol) => return Ok(sol),
         Err(why) => why,
     };
@@ -1970,20 +1975,30 @@ fn direct_route<M: Model>(
         return Err(first);
     }
     let finer = DIRECT_RETRY_FACTOR * intervals;
-    direct_attempt(problem, options, finer, events)
-        .map_err(|second| format!("{first}; on {finer} intervals: {second}"))
+    let second = match direct_attempt(problem, options, finer, reduced, events) {
+        Ok(sol) => return Ok(sol),
+        Err(why) => format!("{first}; on {finer} intervals: {why}"),
+    };
+    if options.stopped() {
+        return Err(second);
+    }
+    // Corpus problem issue12-080 (γ = 0): the reduced form's SQP stops at a failed inertia
+    // correction on both meshes; the multiplier form reaches IPOPT's regular minimum.
+    let multiplier = DirectForm::Multiplier(PathForm::Constraint);
+    direct_attempt(problem, options, intervals, multiplier, events)
+        .map_err(|third| format!("{second}; in the multiplier form: {third}"))
 }
 
-/// One attempt of [`direct_route`] on `intervals` intervals.
+/// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`.
 fn direct_attempt<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     intervals: usize,
+    form: DirectForm,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, String> {
-    let start =
-        super::direct::direct_start(problem, intervals, super::direct::DirectGuess::Segment)
-            .map_err(|e| e.to_string())?;
+    let start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
+        .map_err(|e| e.to_string())?;
     let sol =
         warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events).map_err(|e| {
             format!(
