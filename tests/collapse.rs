@@ -129,3 +129,52 @@ fn without_smoothing_the_cost_falls_to_zero_with_the_horizon() {
         samples[0]
     );
 }
+
+/// The motion through samples (`collapse::along_samples`, used for the direct start's
+/// minimum): the projected segment sampled at 301 points gives the control of the exact
+/// segment, to the spline's interpolation error.
+#[test]
+fn a_sampled_motion_costs_what_the_exact_motion_costs() {
+    let problem = paper_lie::paper_problem::<So3>(0.01);
+    let span = 0.157;
+    let exact = collapse::along_segment(&problem, problem.params(), span).unwrap();
+    let set = problem.level_set();
+    let path = suslov::lie::path::projected_segment(
+        &set,
+        &problem.omega_a,
+        &problem.omega_b,
+        problem.t0,
+        problem.t0 + span,
+        1e-12,
+    )
+    .unwrap();
+    let times: Vec<f64> = (0..=300)
+        .map(|k| problem.t0 + span * k as f64 / 300.0)
+        .collect();
+    let omegas: Vec<Vec<f64>> = times
+        .iter()
+        .map(|&t| {
+            let mut v = vec![0.0; So3::DIM];
+            suslov::lie::path::Path::value_into(&path, t, &mut v);
+            v
+        })
+        .collect();
+    let sampled = collapse::along_samples(
+        &problem,
+        problem.params(),
+        &times,
+        &omegas,
+        Motion::DirectMinimum,
+    )
+    .unwrap();
+    eprintln!("exact {exact:?}\nsampled {sampled:?}");
+    assert_eq!(sampled.motion, Motion::DirectMinimum);
+    assert!((sampled.span - span).abs() < 1e-15);
+    assert!(sampled.reintegration_error < 1e-8, "{sampled:?}");
+    assert!(
+        ((sampled.cost - exact.cost) / exact.cost).abs() < 1e-7,
+        "{} vs {}",
+        sampled.cost,
+        exact.cost
+    );
+}

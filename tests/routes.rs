@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use suslov::lie::collapse::Motion;
 use suslov::lie::{self, LieSolveError};
 use suslov::so3::solve::SolveOptions;
 
@@ -155,6 +156,20 @@ fn a_problem_no_route_solves_lists_every_route_tried() {
     for c in &found.controls {
         assert!(c.cost > 44.27, "{c:?}");
     }
+    // The cheapest is the motion of our own direct start's minimum (the SQP in the multiplier
+    // form, which the BVP cannot take up): measured 44.271496, 7e-6 relative above IPOPT's
+    // infimum and below the stop's own motion with a vanishing xi (44.271589).
+    assert_eq!(found.least.motion, Motion::DirectMinimum, "{found:?}");
+    assert!(
+        (found.least.cost - 44.27118405) / 44.27118405 < 2e-5,
+        "{found:?}"
+    );
+    let own = found
+        .controls
+        .iter()
+        .find(|c| c.motion == Motion::Solution)
+        .expect("the stop's own motion");
+    assert!(found.least.cost < own.cost, "{found:?}");
 }
 
 /// Issue #12's free-time file whose delta stage stops at 0.020 (target 1.22): the fixed-time

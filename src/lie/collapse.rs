@@ -50,7 +50,9 @@ use crate::ivp::{integrate, IvpOptions};
 use crate::model::Model;
 
 use super::checks::{GAUSS5, REINTEGRATION_WINDOW_ANGLE};
-use super::path::{projected_segment, Path, PathError, Projected};
+use std::sync::Arc;
+
+use super::path::{projected_segment, Path, PathError, Projected, Sampled};
 use super::problem::{with_buffer, Problem};
 use super::solve::LieSolution;
 
@@ -86,6 +88,10 @@ pub enum Motion {
     DesiredPath,
     /// The motion of a computed solution (its `ξ` scaled to `ε ξ/|ξ|`).
     Solution,
+    /// The motion of the direct start's minimum of the transcribed problem
+    /// ([`super::direct`]): the spline through its `Ω` at the collocation points, projected
+    /// onto the level set.
+    DirectMinimum,
 }
 
 impl Motion {
@@ -95,6 +101,7 @@ impl Motion {
             Motion::ProjectedSegment => "the projected segment from Omega_a to Omega_b",
             Motion::DesiredPath => "the projected desired path",
             Motion::Solution => "the computed solution's motion",
+            Motion::DirectMinimum => "the motion of the direct method's minimum",
         }
     }
 }
@@ -337,6 +344,22 @@ fn path_control<M: Model>(
         check,
         &control,
     )
+}
+
+/// [`along_path`] on the motion through `Ω(times[k]) = omegas[k]` (rows of `n`), e.g. the
+/// direct start's minimum: the natural cubic spline through the samples, projected onto the
+/// level set. `times` run from `a` to `a + span`.
+pub fn along_samples<M: Model>(
+    problem: &Problem<M>,
+    params: &[f64],
+    times: &[f64],
+    omegas: &[Vec<f64>],
+    motion: Motion,
+) -> Result<CollapsedControl, CollapseError> {
+    let spline = Sampled::new(times, omegas)?;
+    let path = Projected::new(Arc::new(spline), problem.level_set())?;
+    let span = times.last().copied().unwrap_or(problem.t0) - problem.t0;
+    along_path(problem, params, &path, span, motion)
 }
 
 /// [`along_path`] on the projected segment `Ω_a → Ω_b` over `[a, a + span]`.
@@ -604,13 +627,15 @@ pub fn for_solution<M: Model>(
 }
 
 /// The evidence for a problem whose homotopy stopped at `partial`: the controls for `problem`
-/// (its target constants), and `partial`'s motion with a vanishing `ξ`, compared with the least
-/// verified fixed-time extremal of the value-function scan (`scan_least`) when there is one,
-/// else with `partial`'s own control at the target constants.
+/// (its target constants), `partial`'s motion with a vanishing `ξ`, and that of the direct
+/// start's minimum (`direct`: its times and `Ω` rows, when the SQP found one the BVP could not
+/// take up), compared with the least verified fixed-time extremal of the value-function scan
+/// (`scan_least`) when there is one, else with `partial`'s own control at the target constants.
 pub fn for_stop<M: Model>(
     problem: &Problem<M>,
     partial: &LieSolution<M>,
     scan_least: Option<f64>,
+    direct: Option<(&[f64], &[Vec<f64>])>,
 ) -> Option<CollapseEvidence> {
     if !problem.conserves_energy() {
         return None;
@@ -620,6 +645,15 @@ pub fn for_stop<M: Model>(
     let mut controls = candidates(problem, span, free);
     if !free {
         controls.extend(along_solution(partial, problem.params()));
+    }
+    if let Some((times, omegas)) = direct {
+        controls.extend(along_samples(
+            problem,
+            problem.params(),
+            times,
+            omegas,
+            Motion::DirectMinimum,
+        ));
     }
     match scan_least {
         Some(j) => evidence(

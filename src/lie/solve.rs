@@ -70,7 +70,7 @@ use crate::bvp::{self, Guess, Solution};
 use crate::continuation::{self, ContinuationStatus, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
-use super::direct::{DirectForm, DirectGuess};
+use super::direct::{DirectForm, DirectGuess, DirectStart};
 use super::multiplier::PathForm;
 use super::path::{projected_segment, EndBlend, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
@@ -1689,6 +1689,8 @@ fn solve_cold<M: Model>(
             &first,
             LieSolveError::StageFailed { .. } | LieSolveError::Start(_)
         );
+    // The cheapest minimum of the direct start that the BVP could not take up.
+    let mut direct_minimum: Option<Box<DirectStart>> = None;
     if direct {
         let clock = std::time::Instant::now();
         let after = routes
@@ -1709,11 +1711,14 @@ fn solve_cold<M: Model>(
                 sol.routes = routes;
                 return Ok(sol);
             }
-            Err(why) => routes.push(RouteReport {
-                route: DIRECT_START_ROUTE,
-                stopped: Some(why),
-                seconds: clock.elapsed().as_secs_f64(),
-            }),
+            Err((why, found)) => {
+                routes.push(RouteReport {
+                    route: DIRECT_START_ROUTE,
+                    stopped: Some(why),
+                    seconds: clock.elapsed().as_secs_f64(),
+                });
+                direct_minimum = found;
+            }
         }
     }
     let mut scan = None;
@@ -1774,7 +1779,18 @@ fn solve_cold<M: Model>(
                 .filter_map(|s| s.cost)
                 .min_by(f64::total_cmp);
             if evidence == Evidence::Collapse && !options.stopped() {
-                partial.collapse = super::collapse::for_stop(problem, &partial, scan_least);
+                let omegas: Option<Vec<Vec<f64>>> = direct_minimum.as_ref().map(|d| {
+                    d.warm
+                        .states
+                        .chunks_exact(M::N_STATE)
+                        .map(|y| y[M::OMEGA].to_vec())
+                        .collect()
+                });
+                let direct = direct_minimum
+                    .as_ref()
+                    .zip(omegas.as_deref())
+                    .map(|(d, o)| (d.warm.times.as_slice(), o));
+                partial.collapse = super::collapse::for_stop(problem, &partial, scan_least, direct);
             }
             if let Some(found) = partial.collapse.as_ref().filter(|c| c.undercuts) {
                 reason.push_str("; ");
@@ -1956,37 +1972,60 @@ const DIRECT_RETRY_FACTOR: usize = 2;
 /// [`solve_from`]'s) and the a-posteriori checks; if that stops, all of it once more on a
 /// [`DIRECT_RETRY_FACTOR`] times finer mesh, and then on the first mesh in the multiplier
 /// form ([`super::multiplier`], `φ = 0` at every point), which passes where `ξ` nears 0. The
-/// error gives every attempt's reason.
+/// error gives every attempt's reason, and the cheapest minimum the SQP found that the BVP
+/// could not take up (evidence for [`super::collapse::for_stop`]).
 fn direct_route<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     events: &mut dyn FnMut(&Event),
-) -> Result<LieSolution<M>, String> {
+) -> Result<LieSolution<M>, (String, Option<Box<DirectStart>>)> {
     let intervals = options.initial_intervals.clamp(1, DIRECT_MAX_INTERVALS);
     // When the first attempt stops, once more on a twice finer mesh: corpus problem fast-119
     // (|Omega_a| = 35 over b - a = 7.3) has, on 100 intervals, only a collapsed minimum
     // (min |xi| 0.001, cost 117.69), and on 200 the regular minimum IPOPT finds (114.838).
+    let mut cheapest: Option<Box<DirectStart>> = None;
+    let mut keep = |found: Option<Box<DirectStart>>| {
+        if let Some(found) = found {
+            if cheapest.as_ref().is_none_or(|c| found.cost < c.cost) {
+                cheapest = Some(found);
+            }
+        }
+    };
     let reduced = DirectForm::Reduced;
     let first = match direct_attempt(problem, options, intervals, reduced, events) {
         Ok(sol) => return Ok(sol),
-        Err(why) => why,
+        Err((why, found)) => {
+            keep(found);
+            why
+        }
     };
     if options.stopped() {
-        return Err(first);
+        return Err((first, cheapest));
     }
     let finer = DIRECT_RETRY_FACTOR * intervals;
     let second = match direct_attempt(problem, options, finer, reduced, events) {
         Ok(sol) => return Ok(sol),
-        Err(why) => format!("{first}; on {finer} intervals: {why}"),
+        Err((why, found)) => {
+            keep(found);
+            format!("{first}; on {finer} intervals: {why}")
+        }
     };
     if options.stopped() {
-        return Err(second);
+        return Err((second, cheapest));
     }
     // Corpus problem issue12-080 (γ = 0): the reduced form's SQP stops at a failed inertia
     // correction on both meshes; the multiplier form reaches IPOPT's regular minimum.
     let multiplier = DirectForm::Multiplier(PathForm::Constraint);
-    direct_attempt(problem, options, intervals, multiplier, events)
-        .map_err(|third| format!("{second}; in the multiplier form: {third}"))
+    match direct_attempt(problem, options, intervals, multiplier, events) {
+        Ok(sol) => Ok(sol),
+        Err((third, found)) => {
+            keep(found);
+            Err((
+                format!("{second}; in the multiplier form: {third}"),
+                cheapest,
+            ))
+        }
+    }
 }
 
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`.
@@ -1996,21 +2035,25 @@ fn direct_attempt<M: Model>(
     intervals: usize,
     form: DirectForm,
     events: &mut dyn FnMut(&Event),
-) -> Result<LieSolution<M>, String> {
+) -> Result<LieSolution<M>, (String, Option<Box<DirectStart>>)> {
     let start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
-        .map_err(|e| e.to_string())?;
-    let sol =
-        warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events).map_err(|e| {
-            format!(
-            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.3}), \
-             but the BVP from it stopped: {e}",
-            start.cost, start.min_xi
-        )
-        })?;
+        .map_err(|e| (e.to_string(), None))?;
+    let sol = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
+        Ok(sol) => sol,
+        Err(e) => {
+            let why = format!(
+                "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| \
+                 {:.3}), but the BVP from it stopped: {e}",
+                start.cost, start.min_xi
+            );
+            return Err((why, Some(Box::new(start))));
+        }
+    };
     match super::verify::verify_solution(&sol).verification.verdict() {
         super::checks::Verdict::Verified => Ok(sol),
-        super::checks::Verdict::Unverified { reason } => Err(format!(
-            "the BVP from the SQP's minimum failed the checks: {reason}"
+        super::checks::Verdict::Unverified { reason } => Err((
+            format!("the BVP from the SQP's minimum failed the checks: {reason}"),
+            Some(Box::new(start)),
         )),
     }
 }
