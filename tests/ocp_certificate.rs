@@ -15,8 +15,8 @@ use ocpkit::{dense, dense_reduced};
 use suslov::ocp::certify::second_order;
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
-    certify, sqp, Boundary, Certificate, Horizon, NewtonOptions, OcpProblem, SecondOrderOptions,
-    SqpError, SqpOptions, Transcription, Verdict,
+    certify, sqp, Boundary, Certificate, Horizon, LinearCondition, NewtonOptions, OcpProblem,
+    SecondOrderOptions, SqpError, SqpOptions, Transcription, Verdict,
 };
 
 /// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
@@ -170,10 +170,20 @@ fn pendulum_transcription(p: &Pendulum, free: bool) -> Transcription<'_, Pendulu
             length: 2.0,
         }
     };
+    // With the path constraint, a linear end condition too (x₁ + 0.5 x₂ = 0.1 at the end).
+    let end_linear = if p.path {
+        vec![LinearCondition {
+            coefficients: vec![(0, 1.0), (1, 0.5)],
+            value: 0.1,
+        }]
+    } else {
+        vec![]
+    };
     let boundary = Boundary {
         start: vec![(0, 0.5), (1, 0.0)],
         end: vec![(0, 0.0)],
         start_linear: vec![],
+        end_linear,
     };
     Transcription::new(p, boundary, horizon, graded_mesh(4)).expect("valid transcription")
 }
@@ -284,6 +294,7 @@ fn oscillator_transcription(
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
         start_linear: vec![],
+        end_linear: vec![],
     };
     let horizon = Horizon::Fixed {
         t0: 0.0,
@@ -412,6 +423,7 @@ fn free_time_optimum_is_found_and_certified() {
         start: vec![(0, 0.0)],
         end: vec![(0, 1.0)],
         start_linear: vec![],
+        end_linear: vec![],
     };
     let tr = Transcription::new(&prob, boundary, Horizon::Free { t0: 1.0 }, uniform_mesh(5))
         .expect("valid");
@@ -557,6 +569,7 @@ fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
         start: vec![(0, 0.0), (1, 0.0)],
         end: vec![(0, 1.0), (1, 0.0)],
         start_linear: vec![],
+        end_linear: vec![],
     };
     let horizon = Horizon::Fixed {
         t0: 0.0,

@@ -226,6 +226,7 @@ pub fn transcription_on<'a, M: Model>(
         start: M::OMEGA.map(|i| (i, p.omega_a[i])).collect(),
         end: M::OMEGA.map(|i| (i, p.omega_b[i])).collect(),
         start_linear,
+        end_linear: vec![],
     };
     let horizon = match p.terminal {
         TerminalTime::Fixed(b) => Horizon::Fixed {

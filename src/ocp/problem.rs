@@ -82,6 +82,9 @@ pub struct Boundary {
     /// Linear conditions `Σ cᵢ x_i(t0) = value` on the start state (e.g. a constraint level
     /// `⟨Ω_a, ξ(t0)⟩ = c` once `Ω(t0)` is prescribed).
     pub start_linear: Vec<LinearCondition>,
+    /// Linear conditions `Σ cᵢ x_i(t0 + T) = value` on the end state (e.g. the components of
+    /// `Ω(b) − Ω_b` tangent to a level set that the dynamics conserve).
+    pub end_linear: Vec<LinearCondition>,
 }
 
 /// A linear condition `Σ coefficient · x_component = value` on a state.

@@ -12,7 +12,8 @@
 //! v = [ z_0 | z_1 | … | z_{P−1} | T (only if free) ],   z_p = [x_p, u_p]
 //! ```
 //!
-//! Constraints (`n_con = 3 N n + P n_g + #start + #start_linear + #end`), in this order:
+//! Constraints (`n_con = 3 N n + P n_g + #start + #start_linear + #end + #end_linear`), in
+//! this order:
 //!
 //! ```text
 //! c_{k,i} = x_{3k+i} − x_{3k} − T h_k Σ_j a_ij f(t_{3k+j}, z_{3k+j}),   i = 1, 2, 3
@@ -20,6 +21,7 @@
 //! x_i(p = 0) − a_i   for the prescribed start components
 //! Σ c_i x_i(p = 0) − v for the linear start conditions
 //! x_j(p = P−1) − b_j for the prescribed end components
+//! Σ c_j x_j(p = P−1) − v for the linear end conditions
 //! ```
 //!
 //! Objective (Lobatto quadrature, exact for degree 5): `J = T Σ_k h_k Σ_j b_j L(t_{3k+j}, z_{3k+j})`.
@@ -100,7 +102,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                 }
             }
         }
-        for cond in &boundary.start_linear {
+        for cond in boundary.start_linear.iter().chain(&boundary.end_linear) {
             for (i, &(c, _)) in cond.coefficients.iter().enumerate() {
                 if c >= n || cond.coefficients[..i].iter().any(|&(d, _)| d == c) {
                     return Err(TranscriptionError::BadBoundary(c));
@@ -122,6 +124,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             m: problem.n_control(),
             n_g: problem.n_path(),
         })
+    }
+
+    /// The same problem, horizon and mesh with other boundary conditions (validated as by
+    /// [`Self::new`]).
+    pub fn with_boundary(self, boundary: Boundary) -> Result<Self, TranscriptionError> {
+        Self::new(self.problem, boundary, self.horizon, self.mesh)
     }
 
     /// Number of states `n`.
@@ -156,7 +164,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
 
     /// Number of equality constraints.
     pub fn n_con(&self) -> usize {
-        self.path_row(self.n_points()) + self.n_start_rows() + self.boundary.end.len()
+        self.path_row(self.n_points()) + self.n_start_rows() + self.n_end_rows()
+    }
+
+    /// Number of conditions at the end (prescribed components, then linear conditions).
+    fn n_end_rows(&self) -> usize {
+        self.boundary.end.len() + self.boundary.end_linear.len()
     }
 
     /// Number of path constraints per point.
@@ -377,6 +390,15 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             c[row] = v[last + comp] - val;
             row += 1;
         }
+        for cond in &self.boundary.end_linear {
+            c[row] = cond
+                .coefficients
+                .iter()
+                .map(|&(comp, coef)| coef * v[last + comp])
+                .sum::<f64>()
+                - cond.value;
+            row += 1;
+        }
         c
     }
 
@@ -451,6 +473,12 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         }
         for &(comp, _) in &self.boundary.end {
             out.push((row, last + comp, 1.0));
+            row += 1;
+        }
+        for cond in &self.boundary.end_linear {
+            for &(comp, coef) in &cond.coefficients {
+                out.push((row, last + comp, coef));
+            }
             row += 1;
         }
         out
@@ -554,7 +582,7 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         }
         let mut last: Vec<usize> = self.length_index().into_iter().collect();
         let end_rows = start_rows + self.n_start_rows();
-        last.extend(end_rows..end_rows + self.boundary.end.len());
+        last.extend(end_rows..end_rows + self.n_end_rows());
         if !last.is_empty() {
             groups.push(last);
         }
