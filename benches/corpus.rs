@@ -391,7 +391,7 @@ fn main() {
     }
     let _ = writeln!(r);
     // What the controls with a vanishing xi showed (summary.json's extra.collapse).
-    let mut collapse: BTreeMap<(&str, &str), usize> = BTreeMap::new();
+    let mut collapse: BTreeMap<(&str, String), usize> = BTreeMap::new();
     for (p, o) in problems.iter().zip(&results) {
         let kind = match (&o.verdict, p.fixed_time) {
             (Verdict::Solved, _) => "solved + verified",
@@ -400,17 +400,21 @@ fn main() {
             _ => "other",
         };
         let found = match o.collapse {
-            None => "not evaluated",
-            Some(f) if f.no_optimal_time => "undercut: no optimal b",
-            Some(f) if f.undercuts => "undercut",
-            Some(_) => "not undercut",
+            None => "not evaluated".to_string(),
+            Some(f) if f.no_optimal_time => "undercut: no optimal b".to_string(),
+            Some(f) if f.undercuts => format!(
+                "undercut (cheapest: {})",
+                f.least_motion.unwrap_or("unknown")
+            ),
+            Some(_) => "not undercut".to_string(),
         };
         *collapse.entry((kind, found)).or_default() += 1;
     }
     let _ = writeln!(
         r,
         "Controls with a vanishing xi (`suslov::lie::collapse`; `undercut`: one costs less than \
-         the extremal, or than the stop's comparison):\n"
+         the extremal, or than the stop's comparison; the cheapest control's motion in \
+         parentheses):\n"
     );
     let _ = writeln!(r, "| problems | finding | count |\n|---|---|---|");
     for ((kind, found), c) in &collapse {

@@ -826,11 +826,14 @@ pub struct Outcome {
     pub collapse: Option<CollapseFlags>,
 }
 
-/// The two verdicts of `summary.json`'s `extra.collapse`.
+/// The verdicts of `summary.json`'s `extra.collapse`, and the cheapest control's motion.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct CollapseFlags {
     pub undercuts: bool,
     pub no_optimal_time: bool,
+    /// The motion of the cheapest control (`projected_segment`, `desired_path`, `solution`,
+    /// `direct_minimum`).
+    pub least_motion: Option<&'static str>,
 }
 
 /// `out/summary.json`'s `extra.collapse` flags, if recorded.
@@ -838,9 +841,17 @@ pub fn collapse_flags(out: &Path) -> Option<CollapseFlags> {
     let text = std::fs::read_to_string(out.join("summary.json")).ok()?;
     let v: serde_json::Value = serde_json::from_str(&text).ok()?;
     let c = &v["cases"][0]["extra"]["collapse"];
+    let least_motion = match c["least"]["motion"].as_str() {
+        Some("projected_segment") => Some("projected_segment"),
+        Some("desired_path") => Some("desired_path"),
+        Some("solution") => Some("solution"),
+        Some("direct_minimum") => Some("direct_minimum"),
+        _ => None,
+    };
     Some(CollapseFlags {
         undercuts: c.get("undercuts")?.as_bool()?,
         no_optimal_time: c.get("no_optimal_time")?.as_bool()?,
+        least_motion,
     })
 }
 
