@@ -339,3 +339,57 @@ fn minimize<M: Model, P: OcpProblem>(
         span: t_len,
     })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::model::so3::So3;
+
+    /// The end conditions of the multiplier form on the paper's problem (the energy is
+    /// conserved): `n − 1` orthonormal rows, orthogonal to the level set's normal `𝕀Ω_b`,
+    /// met by `Ω_b`, and violated by another point of the level set near it.
+    #[test]
+    fn the_tangential_end_conditions_span_the_level_sets_tangent_space() {
+        let problem = crate::so3::paper::problem(0.01).to_generic().unwrap();
+        let ocp_problem = MultiplierOcp::<So3>::for_problem(&problem, PathForm::Constraint);
+        let mesh = vec![0.0, 0.25, 0.5, 0.75, 1.0];
+        let tr = multiplier::transcription_on(&ocp_problem, &problem, mesh).unwrap();
+        assert_eq!(tr.boundary().end.len(), So3::DIM);
+        let n_con = tr.n_con();
+        let tr = tangential_end(&problem, tr).unwrap();
+        assert_eq!(tr.n_con(), n_con - 1);
+        let b = tr.boundary();
+        assert!(b.end.is_empty());
+        assert_eq!(b.end_linear.len(), So3::DIM - 1);
+        let n = So3::DIM;
+        let row = |c: &LinearCondition| {
+            let mut v = vec![0.0; n];
+            for &(i, x) in &c.coefficients {
+                v[i] = x;
+            }
+            v
+        };
+        let dot = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x * y).sum::<f64>();
+        let inertia = problem.level_set().inertia().to_vec();
+        let omega_b = &problem.omega_b;
+        let normal: Vec<f64> = (0..n)
+            .map(|i| (0..n).map(|j| inertia[i * n + j] * omega_b[j]).sum())
+            .collect();
+        let scale = dot(&normal, &normal).sqrt();
+        for (i, ci) in b.end_linear.iter().enumerate() {
+            let ti = row(ci);
+            assert!((ci.value - dot(&ti, omega_b)).abs() < 1e-14 * (1.0 + ci.value.abs()));
+            assert!(dot(&ti, &normal).abs() < 1e-14 * scale, "{ti:?}");
+            for (j, cj) in b.end_linear.iter().enumerate() {
+                let want = f64::from(u8::from(i == j));
+                assert!((dot(&ti, &row(cj)) - want).abs() < 1e-14);
+            }
+        }
+        // Another point of the level set near Ω_b misses the conditions.
+        let t0 = row(&b.end_linear[0]);
+        let moved: Vec<f64> = omega_b.iter().zip(&t0).map(|(o, t)| o + 0.1 * t).collect();
+        let other = problem.level_set().project(&moved).unwrap();
+        let miss = (dot(&t0, &other) - b.end_linear[0].value).abs();
+        assert!(miss > 0.05, "{miss}");
+    }
+}

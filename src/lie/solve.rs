@@ -2043,7 +2043,7 @@ fn direct_attempt<M: Model>(
         Err(e) => {
             let why = format!(
                 "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| \
-                 {:.3}), but the BVP from it stopped: {e}",
+                 {:.2e}), but the BVP from it stopped: {e}",
                 start.cost, start.min_xi
             );
             return Err((why, Some(Box::new(start))));
