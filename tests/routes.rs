@@ -543,3 +543,38 @@ fn a_regular_minimum_no_branch_reaches_is_found_by_the_direct_start() {
     .expect("certificate");
     assert_eq!(cert.verdict(), Verdict::Certified);
 }
+
+/// Corpus problem spiral-088 (fixed b): the analytic start fails on every route, so there is
+/// no partial solution to compare with. The direct start's SQP (the multiplier form) converges
+/// to a minimum whose ξ collapses (min |ξ| 4.5e-3 when measured); a control with a vanishing ξ
+/// along its motion, re-integrated, costs no more than that minimum (85.3639 against the
+/// discrete 85.3801 when measured). The start failure says so.
+#[test]
+fn a_failed_start_is_explained_by_the_direct_minimum() {
+    let loaded = hard("spiral_088_start_fails.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let reason = match lie::solve(&problem, &loaded.options, &mut |_| {}) {
+        Err(LieSolveError::Start(reason)) => reason,
+        Err(other) => panic!("expected a failed start, got {other}"),
+        Ok(_) => panic!("expected a failed start, got a solution"),
+    };
+    assert!(
+        reason.contains("the direct method's minimum of the transcribed problem costs"),
+        "{reason}"
+    );
+    assert!(
+        reason.contains("the minimizing controls collapse, the infimum is approached as xi -> 0"),
+        "{reason}"
+    );
+    let at = reason
+        .find("along its motion costs J = ")
+        .expect("the control's cost")
+        + 27;
+    let cost: f64 = reason[at..]
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!((cost - 85.3639).abs() < 0.01, "{cost}");
+}

@@ -1810,7 +1810,16 @@ fn solve_cold<M: Model>(
                 partial,
             }
         }
-        LieSolveError::Start(reason) => {
+        LieSolveError::Start(mut reason) => {
+            // No partial solution to compare with: the direct start's minimum is the evidence.
+            if let Some(found) = direct_minimum
+                .as_deref()
+                .filter(|_| evidence == Evidence::Collapse && !options.stopped())
+                .map(|d| direct_finding(problem, d))
+            {
+                reason.push_str("; ");
+                reason.push_str(&found);
+            }
             let tried: Vec<String> = routes[1..]
                 .iter()
                 .map(|r| format!("{}: {}", r.route, r.stopped.as_deref().unwrap_or("solved")))
@@ -2025,6 +2034,46 @@ fn direct_route<M: Model>(
                 cheapest,
             ))
         }
+    }
+}
+
+/// What the direct start's minimum `d` (which the BVP could not take up) says about `problem`,
+/// for a stop without a partial solution: when a control with a vanishing `ξ` along the
+/// minimum's own motion ([`super::collapse::along_samples`], re-integrated) costs no more
+/// than the minimum itself, the minimum is that collapse (the infimum is approached as
+/// `ξ → 0`); otherwise it is a regular minimum the BVP does not converge from.
+fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
+    let omegas: Vec<Vec<f64>> = d
+        .warm
+        .states
+        .chunks_exact(M::N_STATE)
+        .map(|y| y[M::OMEGA].to_vec())
+        .collect();
+    let control = super::collapse::along_samples(
+        problem,
+        problem.params(),
+        &d.warm.times,
+        &omegas,
+        super::collapse::Motion::DirectMinimum,
+    );
+    let head = format!(
+        "the direct method's minimum of the transcribed problem costs {:.6} with min |xi| {:.2e}",
+        d.cost, d.min_xi
+    );
+    match control {
+        // The discrete cost is a quadrature on the direct mesh: a relative 1e-3 for its error.
+        Ok(c) if c.cost <= d.cost * (1.0 + 1e-3) => format!(
+            "{head}, and an admissible control with |xi| = {:.0e} along its motion costs J = \
+             {:.6} (re-integrated to within {:.1e}): the minimizing controls collapse, the \
+             infimum is approached as xi -> 0, where the optimality system is singular",
+            c.eps, c.cost, c.reintegration_error
+        ),
+        Ok(c) => format!(
+            "{head} (a regular minimum: a control with a vanishing xi along its motion costs \
+             {:.6}), but the BVP does not converge from it",
+            c.cost
+        ),
+        Err(e) => format!("{head} (its motion with a vanishing xi: {e})"),
     }
 }
 
