@@ -578,3 +578,34 @@ fn a_failed_start_is_explained_by_the_direct_minimum() {
         .unwrap();
     assert!((cost - 85.3639).abs() < 0.01, "{cost}");
 }
+
+/// Corpus problem spiral-149 (fixed b): every continuation route stops; the direct start in
+/// the reduced form solves it (cost 0.0078319 when measured), and in the multiplier form it
+/// lands on another minimum, cheaper (0.0065374267 when measured), which is kept: verified,
+/// and certified a local minimum.
+#[test]
+fn the_cheaper_of_the_two_direct_minima_is_kept() {
+    use suslov::lie::solve::DIRECT_START_ROUTE;
+    use suslov::ocp::{NewtonOptions, SecondOrderOptions, Verdict};
+    let loaded = hard("spiral_149_two_direct_minima.toml");
+    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let routes = solved_by(&sol);
+    assert_eq!(
+        routes.last(),
+        Some(&(DIRECT_START_ROUTE, true)),
+        "{routes:?}"
+    );
+    let checked = lie::verify_solution(&sol);
+    assert!(checked.verification.passed(), "{:?}", checked.verification);
+    let cost = checked.diagnostics.cost;
+    assert!((cost - 0.0065374267).abs() < 1e-9, "{cost}");
+    assert!(cost < 0.0078319 * 0.9, "{cost}");
+    let cert = lie::certify::certify(
+        &sol,
+        &NewtonOptions::default(),
+        &SecondOrderOptions::default(),
+    )
+    .expect("certificate");
+    assert_eq!(cert.verdict(), Verdict::Certified);
+}

@@ -1979,10 +1979,11 @@ const DIRECT_RETRY_FACTOR: usize = 2;
 
 /// The direct-start route: [`super::direct::direct_start`], then one BVP solve from it (as
 /// [`solve_from`]'s) and the a-posteriori checks; if that stops, all of it once more on a
-/// [`DIRECT_RETRY_FACTOR`] times finer mesh, and then on the first mesh in the multiplier
-/// form ([`super::multiplier`], `φ = 0` at every point), which passes where `ξ` nears 0. The
-/// error gives every attempt's reason, and the cheapest minimum the SQP found that the BVP
-/// could not take up (evidence for [`super::collapse::for_stop`]).
+/// [`DIRECT_RETRY_FACTOR`] times finer mesh; then, whether or not that solved, on the first
+/// mesh in the multiplier form ([`super::multiplier`], `φ = 0` at every point), which passes
+/// where `ξ` nears 0. Of two verified solutions the cheaper is kept. The error gives every
+/// attempt's reason, and the cheapest minimum the SQP found that the BVP could not take up
+/// (evidence for [`super::collapse::for_stop`]).
 fn direct_route<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -2001,38 +2002,45 @@ fn direct_route<M: Model>(
         }
     };
     let reduced = DirectForm::Reduced;
-    let first = match direct_attempt(problem, options, intervals, reduced, events) {
-        Ok(sol) => return Ok(sol),
+    let mut solved = None;
+    let mut why = match direct_attempt(problem, options, intervals, reduced, events) {
+        Ok(found) => {
+            solved = Some(found);
+            String::new()
+        }
         Err((why, found)) => {
             keep(found);
             why
         }
     };
-    if options.stopped() {
-        return Err((first, cheapest));
-    }
-    let finer = DIRECT_RETRY_FACTOR * intervals;
-    let second = match direct_attempt(problem, options, finer, reduced, events) {
-        Ok(sol) => return Ok(sol),
-        Err((why, found)) => {
-            keep(found);
-            format!("{first}; on {finer} intervals: {why}")
+    if solved.is_none() && !options.stopped() {
+        let finer = DIRECT_RETRY_FACTOR * intervals;
+        match direct_attempt(problem, options, finer, reduced, events) {
+            Ok(found) => solved = Some(found),
+            Err((second, found)) => {
+                keep(found);
+                why = format!("{why}; on {finer} intervals: {second}");
+            }
         }
-    };
-    if options.stopped() {
-        return Err((second, cheapest));
     }
-    // Corpus problem issue12-080 (γ = 0): the reduced form's SQP stops at a failed inertia
-    // correction on both meshes; the multiplier form reaches IPOPT's regular minimum.
+    if options.stopped() {
+        return solved.map(|(sol, _)| sol).ok_or((why, cheapest));
+    }
+    // The multiplier form also when the reduced form solved: the two SQPs can land on
+    // different minima, and the cheaper verified one is kept (corpus problem spiral-149:
+    // 0.0065374 in the multiplier form against 0.0078319 in the reduced). Corpus problem
+    // issue12-080 (γ = 0) is solved in the multiplier form only: the reduced form's SQP stops
+    // at a failed inertia correction on both meshes.
     let multiplier = DirectForm::Multiplier(PathForm::Constraint);
-    match direct_attempt(problem, options, intervals, multiplier, events) {
-        Ok(sol) => Ok(sol),
-        Err((third, found)) => {
+    match (
+        solved,
+        direct_attempt(problem, options, intervals, multiplier, events),
+    ) {
+        (Some((a, cost_a)), Ok((b, cost_b))) => Ok(if cost_b < cost_a { b } else { a }),
+        (Some((a, _)), Err(_)) | (None, Ok((a, _))) => Ok(a),
+        (None, Err((third, found))) => {
             keep(found);
-            Err((
-                format!("{second}; in the multiplier form: {third}"),
-                cheapest,
-            ))
+            Err((format!("{why}; in the multiplier form: {third}"), cheapest))
         }
     }
 }
@@ -2077,14 +2085,15 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
     }
 }
 
-/// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`.
+/// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the
+/// verified solution and its cost.
 fn direct_attempt<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     intervals: usize,
     form: DirectForm,
     events: &mut dyn FnMut(&Event),
-) -> Result<LieSolution<M>, (String, Option<Box<DirectStart>>)> {
+) -> Result<(LieSolution<M>, f64), (String, Option<Box<DirectStart>>)> {
     let start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
         .map_err(|e| (e.to_string(), None))?;
     let sol = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
@@ -2098,8 +2107,9 @@ fn direct_attempt<M: Model>(
             return Err((why, Some(Box::new(start))));
         }
     };
-    match super::verify::verify_solution(&sol).verification.verdict() {
-        super::checks::Verdict::Verified => Ok(sol),
+    let checked = super::verify::verify_solution(&sol);
+    match checked.verification.verdict() {
+        super::checks::Verdict::Verified => Ok((sol, checked.diagnostics.cost)),
         super::checks::Verdict::Unverified { reason } => Err((
             format!("the BVP from the SQP's minimum failed the checks: {reason}"),
             Some(Box::new(start)),
