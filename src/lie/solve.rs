@@ -1974,6 +1974,10 @@ pub const DIRECT_START_ROUTE: &str = "direct start";
 /// to land in the BVP's basin; the BVP solve adapts the mesh).
 const DIRECT_MAX_INTERVALS: usize = 100;
 
+/// Why the direct route (or one attempt) stopped, with the cheapest minimum the SQP found
+/// that the BVP could not take up.
+type DirectFailure = (String, Option<Box<DirectStart>>);
+
 /// A direct start that stops is tried once more on a mesh this many times finer.
 const DIRECT_RETRY_FACTOR: usize = 2;
 
@@ -1988,7 +1992,7 @@ fn direct_route<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     events: &mut dyn FnMut(&Event),
-) -> Result<LieSolution<M>, (String, Option<Box<DirectStart>>)> {
+) -> Result<LieSolution<M>, DirectFailure> {
     let intervals = options.initial_intervals.clamp(1, DIRECT_MAX_INTERVALS);
     // When the first attempt stops, once more on a twice finer mesh: corpus problem fast-119
     // (|Omega_a| = 35 over b - a = 7.3) has, on 100 intervals, only a collapsed minimum
@@ -2093,7 +2097,7 @@ fn direct_attempt<M: Model>(
     intervals: usize,
     form: DirectForm,
     events: &mut dyn FnMut(&Event),
-) -> Result<(LieSolution<M>, f64), (String, Option<Box<DirectStart>>)> {
+) -> Result<(LieSolution<M>, f64), DirectFailure> {
     let start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
         .map_err(|e| (e.to_string(), None))?;
     let sol = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
