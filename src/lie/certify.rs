@@ -170,12 +170,9 @@ impl<M: Model> OcpProblem for LieOcp<'_, M> {
 
     fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]) {
         let (n, nz) = (M::DIM, Self::NZ);
-        let nh = nz + 1;
         let mut jet = vec![0.0; 4 * n];
         self.desired.jet_into(t, &mut jet);
-        let (od, rest) = jet.split_at(n);
-        let (d1, rest) = rest.split_at(n);
-        let d2 = &rest[..n];
+        let od = &jet[..n];
         let mut h_zz = vec![0.0; nz * nz];
         let mut h_zd = vec![0.0; nz * n];
         let mut h_dd = vec![0.0; n * n];
@@ -192,28 +189,49 @@ impl<M: Model> OcpProblem for LieOcp<'_, M> {
         let mut lz = vec![0.0; nz];
         let mut ld = vec![0.0; n];
         M::direct_cost(z, self.params, od, &mut lz, &mut ld);
-        // h is (nz + 1) x (nz + 1): [z, t]; t enters through Ω_d(t).
-        let (rows, last) = h.split_at_mut(nz * nh);
-        for (r, row) in rows.chunks_exact_mut(nh).enumerate() {
-            let (zz, zt) = row.split_at_mut(nz);
-            zz.copy_from_slice(&h_zz[r * nz..(r + 1) * nz]);
-            let v: f64 = h_zd[r * n..(r + 1) * n]
-                .iter()
-                .zip(d1)
-                .map(|(a, b)| a * b)
-                .sum();
-            zt[0] = v;
-            last[r] = v;
-        }
-        let mut tt = 0.0;
-        for a in 0..n {
-            tt += w * ld[a] * d2[a];
-            for b in 0..n {
-                tt += d1[a] * h_dd[a * n + b] * d1[b];
-            }
-        }
-        last[nz] = tt;
+        with_time(nz, n, &h_zz, &h_zd, &h_dd, w, &ld, &jet, h);
     }
+}
+
+/// The `(nz + 1) × (nz + 1)` Hessian of a point Lagrangian `ℓ = w L(z, Ω_d(t)) + …` with
+/// respect to `(z, t)`, when `t` enters only through the desired path: from the second
+/// derivatives in `(z, Ω_d)` (`h_zz`, `h_zd`, `h_dd`), the cost's gradient `l_d = ∂L/∂Ω_d` and
+/// the path's jet `[Ω_d, Ω̇_d, Ω̈_d, …]`:
+/// `∂²ℓ/∂z∂t = h_zd Ω̇_d`, `∂²ℓ/∂t² = w ⟨l_d, Ω̈_d⟩ + Ω̇_dᵀ h_dd Ω̇_d`.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn with_time(
+    nz: usize,
+    n: usize,
+    h_zz: &[f64],
+    h_zd: &[f64],
+    h_dd: &[f64],
+    w: f64,
+    l_d: &[f64],
+    jet: &[f64],
+    h: &mut [f64],
+) {
+    let nh = nz + 1;
+    let (d1, d2) = (&jet[n..2 * n], &jet[2 * n..3 * n]);
+    let (rows, last) = h.split_at_mut(nz * nh);
+    for (r, row) in rows.chunks_exact_mut(nh).enumerate() {
+        let (zz, zt) = row.split_at_mut(nz);
+        zz.copy_from_slice(&h_zz[r * nz..(r + 1) * nz]);
+        let v: f64 = h_zd[r * n..(r + 1) * n]
+            .iter()
+            .zip(d1)
+            .map(|(a, b)| a * b)
+            .sum();
+        zt[0] = v;
+        last[r] = v;
+    }
+    let mut tt = 0.0;
+    for a in 0..n {
+        tt += w * l_d[a] * d2[a];
+        for b in 0..n {
+            tt += d1[a] * h_dd[a * n + b] * d1[b];
+        }
+    }
+    last[nz] = tt;
 }
 
 /// The transcription of `sol`'s problem on `sol`'s own mesh.

@@ -155,12 +155,9 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
 
     fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]) {
         let (n, nx, nz) = (M::DIM, Self::NX, Self::NZ);
-        let nh = nz + 1;
         let mut jet = vec![0.0; 4 * n];
         self.desired.jet_into(t, &mut jet);
-        let (od, rest) = jet.split_at(n);
-        let (d1, rest) = rest.split_at(n);
-        let d2 = &rest[..n];
+        let od = &jet[..n];
         let mut mu = [0.0; 2];
         mu[self.form.row()] = lambda[nx];
         let mut h_zz = vec![0.0; nz * nz];
@@ -180,27 +177,7 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
         let mut lz = vec![0.0; nz];
         let mut ld = vec![0.0; n];
         M::multiplier_cost(z, self.params, od, &mut lz, &mut ld);
-        // h is (nz + 1) x (nz + 1): [z, t]; t enters through Ω_d(t) (as in LieOcp).
-        let (rows, last) = h.split_at_mut(nz * nh);
-        for (r, row) in rows.chunks_exact_mut(nh).enumerate() {
-            let (zz, zt) = row.split_at_mut(nz);
-            zz.copy_from_slice(&h_zz[r * nz..(r + 1) * nz]);
-            let v: f64 = h_zd[r * n..(r + 1) * n]
-                .iter()
-                .zip(d1)
-                .map(|(a, b)| a * b)
-                .sum();
-            zt[0] = v;
-            last[r] = v;
-        }
-        let mut tt = 0.0;
-        for a in 0..n {
-            tt += w * ld[a] * d2[a];
-            for b in 0..n {
-                tt += d1[a] * h_dd[a * n + b] * d1[b];
-            }
-        }
-        last[nz] = tt;
+        super::certify::with_time(nz, n, &h_zz, &h_zd, &h_dd, w, &ld, &jet, h);
     }
 }
 
