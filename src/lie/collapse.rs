@@ -15,7 +15,8 @@
 //!
 //! The cost `C(Ω, Ω̇, ξ, ξ̇)` is continuous at `ξ = ξ̇ = 0` (for the paper's weights,
 //! `α/4 (|ξ|² − 1)² + β/2 |ξ̇|² → α/4`). So **any** motion from `Ω_a` to `Ω_b` on the level set
-//! — the projected segment, the projected desired path, the motion of a computed solution —
+//! — the projected segment, the projected desired path, the motion of a computed solution or
+//! of the direct start's minimum —
 //! is reached by the admissible controls `ξ_ε = ε ξ̂` (ξ̂ its unit control direction), whose
 //! cost tends, as `ε → 0`, to the cost of the motion alone with the control terms at `ξ = 0`:
 //! for the paper's cost `(α/4 + δ) T + γ/2 ∫|Ω − Ω_d|² + η/2 ∫|Ω̇|²`. The infimum of the cost
@@ -35,7 +36,8 @@
 //!
 //! # What is computed
 //!
-//! [`along_path`], [`along_segment`], [`along_desired`] and [`along_solution`] evaluate one
+//! [`along_path`], [`along_segment`], [`along_desired`], [`along_solution`] and
+//! [`along_samples`] (a motion through samples, e.g. the direct start's minimum) evaluate one
 //! control `ξ_ε` ([`COLLAPSE_EPS`]) at given weights: its cost by composite 5-point
 //! Gauss–Legendre quadrature (panels doubled from [`PANELS`] until two values agree; their
 //! difference is the reported quadrature error), and its motion re-integrated from the motion's own states

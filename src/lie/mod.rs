@@ -14,6 +14,8 @@
 //! - [`verify`]: the a-posteriori checks of a [`LieSolution`];
 //! - [`certify`](mod@certify): the second-order certificate (local minimum or not);
 //! - [`direct`]: the direct start (a minimum of the transcribed problem by SQP) for the BVP;
+//! - [`multiplier`]: the multiplier form of the control problem (`λ` a control, the constraint
+//!   a path constraint; defined where `ξ` vanishes), for the direct start;
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
 //! This layer knows nothing of the so(3) problem layer ([`crate::so3`]), which predates it
