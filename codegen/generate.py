@@ -376,13 +376,13 @@ def build_functions(opt):
     fns.append(Function(
         "multiplier_dynamics",
         "The dynamics of the multiplier form, x' = f(z) = [I^-1 (ad*_Omega I Omega + lambda xi);\n"
-        "xi'] (no division: defined at xi = 0), its Jacobian df/dz, and the path constraints\n"
-        "g(z) = [phi, d/dt phi] (phi = <Omega, xi> - gamma(xi)) with dg/dz.",
+        "xi'] (no division: defined at xi = 0), its Jacobian df/dz, and the path constraint\n"
+        "g(z) = phi = <Omega, xi> - gamma(xi) with dg/dz.",
         prog, [zl_arg, p_arg],
         [Out("f", sp.Matrix(f), "array", f"f(z), {len(f)} entries"),
          Out("f_z", fg_z[:len(f), :], "matrix",
              "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j"),
-         Out("g", sp.Matrix(g), "array", "g(z) = [phi, d/dt phi]"),
+         Out("g", sp.Matrix(g), "array", "g(z) = [phi]"),
          Out("g_z", fg_z[len(f):, :], "matrix", "dg/dz, row-major")]))
     prog, f = mt.program()
     l_z, l_d = mt.cost_gradient(prog)
@@ -399,13 +399,12 @@ def build_functions(opt):
     nzl = len(mt.Z)
     fns.append(Function(
         "multiplier_hessian",
-        "Second derivatives of the point Lagrangian l = w L + sum_i lam_i f_i + mu_1 phi +\n"
-        "mu_2 d/dt phi of the multiplier form. Exactly symmetric.",
+        "Second derivatives of the point Lagrangian l = w L + sum_i lam_i f_i + mu phi of the\n"
+        "multiplier form. Exactly symmetric.",
         prog, [zl_arg, p_arg, od_arg,
                Scalar(mt.W, "the weight w of the running cost L", u(0.1, 2.0)),
                Arg("lam", mt.LAM, "the multipliers of the dynamics rows f_i", u(-2.0, 2.0)),
-               Arg("mu", mt.MU, "the multipliers of the path constraints [phi, d/dt phi]",
-                   u(-2.0, 2.0))],
+               Arg("mu", mt.MU, "the multiplier of the path constraint phi", u(-2.0, 2.0))],
         [Out("h_zz", H[:nzl, :nzl], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
          Out("h_zd", H[:nzl, nzl:], "matrix",
              "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),

@@ -256,18 +256,31 @@ pub fn transcription_on<'a, M: Model>(
     // With a nonzero constraint value the start constraint φ(a) = ⟨Ω_a, ξ(a)⟩ − γ = 0 is
     // imposed as in the BVP (super::problem; with a vanishing one it is redundant, and its
     // multiplier not unique); with Ω(a) prescribed it is linear in ξ(a) when γ does not depend
-    // on ξ (`certify` refuses the other case). γ = −φ(0, ξ).
-    let start_linear = if !p.conserves_energy() {
-        let x = vec![0.0; LieOcp::<M>::NX];
-        let mut grad = vec![0.0; LieOcp::<M>::NX];
-        let gamma = -M::constraint_residual(&x, p.params(), &mut grad);
-        vec![LinearCondition {
-            coefficients: M::OMEGA.map(|i| (M::XI.start + i, p.omega_a[i])).collect(),
-            value: gamma,
-        }]
-    } else {
+    // on ξ (`certify` refuses the other case).
+    let start_linear = if p.conserves_energy() {
         vec![]
+    } else {
+        vec![start_level(p)]
     };
+    let (boundary, horizon) = ends_and_horizon(p, start_linear);
+    Transcription::new(ocp_problem, boundary, horizon, mesh)
+}
+
+/// The start condition `⟨Ω_a, ξ(a)⟩ = γ` (linear in `ξ(a)` once `Ω(a) = Ω_a`), for a constraint
+/// value `γ` that does not depend on `ξ`.
+fn start_level<M: Model>(p: &Problem<M>) -> LinearCondition {
+    LinearCondition {
+        coefficients: M::OMEGA.map(|i| (M::XI.start + i, p.omega_a[i])).collect(),
+        value: crate::model::constant_constraint_value::<M>(p.params()),
+    }
+}
+
+/// The boundary conditions of a direct transcription of `p` (`Ω(a) = Ω_a`, `Ω(b) = Ω_b`, `ξ`
+/// free at both ends, and `start_linear`) and its horizon (`b` fixed or free).
+pub(crate) fn ends_and_horizon<M: Model>(
+    p: &Problem<M>,
+    start_linear: Vec<LinearCondition>,
+) -> (Boundary, Horizon) {
     let boundary = Boundary {
         start: M::OMEGA.map(|i| (i, p.omega_a[i])).collect(),
         end: M::OMEGA.map(|i| (i, p.omega_b[i])).collect(),
@@ -281,7 +294,7 @@ pub fn transcription_on<'a, M: Model>(
         },
         TerminalTime::Free { .. } => Horizon::Free { t0: p.t0 },
     };
-    Transcription::new(ocp_problem, boundary, horizon, mesh)
+    (boundary, horizon)
 }
 
 /// Certify `sol` on its own mesh (see the module docs).

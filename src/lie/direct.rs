@@ -46,7 +46,7 @@ use crate::model::Model;
 use crate::ocp::{self, LinearCondition, OcpProblem, SqpOptions, SqpReport, Transcription};
 
 use super::certify::{transcription_on, LieOcp};
-use super::multiplier::{self, MultiplierOcp, PathForm};
+use super::multiplier::{self, MultiplierOcp};
 use std::sync::Arc;
 
 use super::path::{projected_segment, EndBlend, Path, PathError, Projected};
@@ -78,6 +78,17 @@ pub struct DirectStart {
     pub min_xi: f64,
     /// `b − a` of the direct minimum.
     pub span: f64,
+}
+
+impl DirectStart {
+    /// `Ω` at the collocation points (`warm.times`), one row each.
+    pub fn omegas<M: Model>(&self) -> Vec<Vec<f64>> {
+        self.warm
+            .states
+            .chunks_exact(M::N_STATE)
+            .map(|y| y[M::OMEGA].to_vec())
+            .collect()
+    }
 }
 
 /// Why no direct start was built.
@@ -153,8 +164,8 @@ pub enum DirectForm {
     /// The classical form with `λ` eliminated ([`LieOcp`]; singular where `ξ` vanishes).
     Reduced,
     /// The multiplier form ([`MultiplierOcp`]): `λ` a control, the constraint imposed at every
-    /// point in the given form; defined through `ξ = 0`.
-    Multiplier(PathForm),
+    /// point; defined through `ξ = 0`.
+    Multiplier,
 }
 
 /// The direct start of `problem` on a uniform mesh of `intervals` intervals, from the motion
@@ -197,8 +208,8 @@ pub fn direct_start_in<M: Model>(
                 |_, _| {},
             )
         }
-        DirectForm::Multiplier(path) => {
-            let ocp_problem = MultiplierOcp::<M>::for_problem(problem, path);
+        DirectForm::Multiplier => {
+            let ocp_problem = MultiplierOcp::<M>::for_problem(problem);
             let tr = multiplier::transcription_on(&ocp_problem, problem, mesh)?;
             let tr = tangential_end(problem, tr)?;
             let limit = DIRECT_MULTIPLIER_MAX_ITERATIONS;
@@ -351,7 +362,7 @@ mod tests {
     #[test]
     fn the_tangential_end_conditions_span_the_level_sets_tangent_space() {
         let problem = crate::so3::paper::problem(0.01).to_generic().unwrap();
-        let ocp_problem = MultiplierOcp::<So3>::for_problem(&problem, PathForm::Constraint);
+        let ocp_problem = MultiplierOcp::<So3>::for_problem(&problem);
         let mesh = vec![0.0, 0.25, 0.5, 0.75, 1.0];
         let tr = multiplier::transcription_on(&ocp_problem, &problem, mesh).unwrap();
         assert_eq!(tr.boundary().end.len(), So3::DIM);

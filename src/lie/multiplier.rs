@@ -12,10 +12,11 @@
 //! ```text
 //! state x = [Ω, ξ],   control u = [ξ̇, λ],   z = [Ω, ξ, ξ̇, λ]
 //! Ω̇ = 𝕀⁻¹(ad*_Ω 𝕀Ω + λ ξ),   ξ̇ = u_ξ,
-//! path: g(z) = 0 at every collocation point, running cost C(Ω, Ω̇, ξ, ξ̇, Ω_d(t)),
+//! path: φ(Ω, ξ) = ⟨Ω, ξ⟩ − γ(ξ) = 0 at every collocation point (an index-2 DAE; at `a` it
+//! is the start condition), running cost C(Ω, Ω̇, ξ, ξ̇, Ω_d(t)),
 //! ```
 //!
-//! with `g` one of the two [`PathForm`]s. All derivatives, to second order, are generated from
+//! All derivatives, to second order, are generated from
 //! the model file (`multiplier_dynamics`, `multiplier_cost`, `multiplier_hessian`;
 //! `codegen/derive.py`, `MultiplierTranscription`), as the independent direct method
 //! `bench/casadi_direct.py` formulates the problem.
@@ -23,47 +24,24 @@
 use std::marker::PhantomData;
 
 use crate::model::Model;
-use crate::ocp::{self, Boundary, Horizon, LinearCondition, OcpProblem, Transcription};
+use crate::ocp::{self, OcpProblem, Transcription};
 
 use super::path::Path;
-use super::problem::{with_buffer, Problem, TerminalTime};
-
-/// Which form of the constraint the transcription imposes at every point.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum PathForm {
-    /// `φ(Ω, ξ) = ⟨Ω, ξ⟩ − γ(ξ) = 0` at every point (an index-2 DAE, as in
-    /// `bench/casadi_direct.py`); at `a` it is the start condition.
-    Constraint,
-    /// `d/dt φ = 0` at every point and `φ(a) = 0` at the start (index 1; the collocation
-    /// polynomial then keeps `φ` only to the discretization error).
-    Derivative,
-}
-
-impl PathForm {
-    /// The generated path-constraint row this form uses (of `[φ, d/dt φ]`).
-    fn row(self) -> usize {
-        match self {
-            PathForm::Constraint => 0,
-            PathForm::Derivative => 1,
-        }
-    }
-}
+use super::problem::{with_buffer, Problem};
 
 /// The multiplier form of a model's problem (module docs).
 pub struct MultiplierOcp<'a, M: Model> {
     params: &'a [f64],
     desired: &'a dyn Path,
-    form: PathForm,
     model: PhantomData<M>,
 }
 
 impl<'a, M: Model> MultiplierOcp<'a, M> {
     /// The multiplier form of `problem` (its constants and desired path).
-    pub fn for_problem(problem: &'a Problem<M>, form: PathForm) -> Self {
+    pub fn for_problem(problem: &'a Problem<M>) -> Self {
         Self {
             params: problem.params(),
             desired: &*problem.desired,
-            form,
             model: PhantomData,
         }
     }
@@ -87,11 +65,11 @@ impl<'a, M: Model> MultiplierOcp<'a, M> {
     /// `z` holds `[Ω, ξ, ξ̇, ·]`; its `λ` entry is overwritten.
     pub fn fit_lambda(&self, z: &mut [f64], omega_dot: &[f64]) {
         let (n, nx, nz) = (M::DIM, Self::NX, Self::NZ);
-        with_buffer(2 * nx + nx * nz + 2 + 2 * nz, |buf| {
+        with_buffer(2 * nx + nx * nz + 1 + nz, |buf| {
             let (f0, rest) = buf.split_at_mut(nx);
             let (f1, rest) = rest.split_at_mut(nx);
             let (f_z, rest) = rest.split_at_mut(nx * nz);
-            let (g, g_z) = rest.split_at_mut(2);
+            let (g, g_z) = rest.split_at_mut(1);
             z[Self::LAMBDA] = 0.0;
             self.eval(z, f0, f_z, g, g_z);
             z[Self::LAMBDA] = 1.0;
@@ -118,8 +96,8 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
 
     fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
         let nz = Self::NZ;
-        with_buffer(2 + 2 * nz, |buf| {
-            let (g, g_z) = buf.split_at_mut(2);
+        with_buffer(1 + nz, |buf| {
+            let (g, g_z) = buf.split_at_mut(1);
             self.eval(z, f, f_z, g, g_z);
         });
         f_t.fill(0.0); // Suslov's equations are autonomous.
@@ -141,14 +119,10 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
     }
 
     fn path(&self, _t: f64, z: &[f64], g: &mut [f64], g_z: &mut [f64], g_t: &mut [f64]) {
-        let (nx, nz, row) = (Self::NX, Self::NZ, self.form.row());
-        let mut gg = [0.0; 2];
-        with_buffer(nx + nx * nz + 2 * nz, |buf| {
-            let (f, rest) = buf.split_at_mut(nx);
-            let (f_z, gg_z) = rest.split_at_mut(nx * nz);
-            self.eval(z, f, f_z, &mut gg, gg_z);
-            g[0] = gg[row];
-            g_z.copy_from_slice(&gg_z[row * nz..(row + 1) * nz]);
+        let (nx, nz) = (Self::NX, Self::NZ);
+        with_buffer(nx + nx * nz, |buf| {
+            let (f, f_z) = buf.split_at_mut(nx);
+            self.eval(z, f, f_z, g, g_z);
         });
         g_t[0] = 0.0;
     }
@@ -158,8 +132,6 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
         let mut jet = vec![0.0; 4 * n];
         self.desired.jet_into(t, &mut jet);
         let od = &jet[..n];
-        let mut mu = [0.0; 2];
-        mu[self.form.row()] = lambda[nx];
         let mut h_zz = vec![0.0; nz * nz];
         let mut h_zd = vec![0.0; nz * n];
         let mut h_dd = vec![0.0; n * n];
@@ -169,7 +141,7 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
             od,
             w,
             &lambda[..nx],
-            &mu,
+            &lambda[nx..],
             &mut h_zz,
             &mut h_zd,
             &mut h_dd,
@@ -182,35 +154,14 @@ impl<M: Model> OcpProblem for MultiplierOcp<'_, M> {
 }
 
 /// The transcription of `p`'s multiplier form on the normalized `mesh`: `Ω(a) = Ω_a`,
-/// `Ω(b) = Ω_b`, `ξ` free at both ends, and for [`PathForm::Derivative`] the start condition
-/// `⟨Ω_a, ξ(a)⟩ = γ` (linear in `ξ(a)`: the caller refuses a `γ` that depends on `ξ`).
+/// `Ω(b) = Ω_b`, `ξ` free at both ends (`φ(a) = 0`, the path constraint at the first point,
+/// is the start condition).
 pub fn transcription_on<'a, M: Model>(
     ocp_problem: &'a MultiplierOcp<'a, M>,
     p: &Problem<M>,
     mesh: Vec<f64>,
 ) -> Result<Transcription<'a, MultiplierOcp<'a, M>>, ocp::TranscriptionError> {
-    let start_linear = match ocp_problem.form {
-        PathForm::Constraint => vec![],
-        PathForm::Derivative => {
-            let gamma = crate::model::constant_constraint_value::<M>(p.params());
-            vec![LinearCondition {
-                coefficients: M::OMEGA.map(|i| (M::XI.start + i, p.omega_a[i])).collect(),
-                value: gamma,
-            }]
-        }
-    };
-    let boundary = Boundary {
-        start: M::OMEGA.map(|i| (i, p.omega_a[i])).collect(),
-        end: M::OMEGA.map(|i| (i, p.omega_b[i])).collect(),
-        start_linear,
-        end_linear: vec![],
-    };
-    let horizon = match p.terminal {
-        TerminalTime::Fixed(b) => Horizon::Fixed {
-            t0: p.t0,
-            length: b - p.t0,
-        },
-        TerminalTime::Free { .. } => Horizon::Free { t0: p.t0 },
-    };
+    // φ(a) = 0 is the path constraint at the first point: no start condition.
+    let (boundary, horizon) = super::certify::ends_and_horizon(p, vec![]);
     Transcription::new(ocp_problem, boundary, horizon, mesh)
 }

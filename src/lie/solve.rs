@@ -71,7 +71,6 @@ use crate::continuation::{self, ContinuationStatus, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
 use super::direct::{DirectForm, DirectGuess, DirectStart};
-use super::multiplier::PathForm;
 use super::path::{projected_segment, EndBlend, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
@@ -1779,13 +1778,7 @@ fn solve_cold<M: Model>(
                 .filter_map(|s| s.cost)
                 .min_by(f64::total_cmp);
             if evidence == Evidence::Collapse && !options.stopped() {
-                let omegas: Option<Vec<Vec<f64>>> = direct_minimum.as_ref().map(|d| {
-                    d.warm
-                        .states
-                        .chunks_exact(M::N_STATE)
-                        .map(|y| y[M::OMEGA].to_vec())
-                        .collect()
-                });
+                let omegas = direct_minimum.as_ref().map(|d| d.omegas::<M>());
                 let direct = direct_minimum
                     .as_ref()
                     .zip(omegas.as_deref())
@@ -2035,7 +2028,7 @@ fn direct_route<M: Model>(
     // 0.0065374 in the multiplier form against 0.0078319 in the reduced). Corpus problem
     // issue12-080 (γ = 0) is solved in the multiplier form only: the reduced form's SQP stops
     // at a failed inertia correction on both meshes.
-    let multiplier = DirectForm::Multiplier(PathForm::Constraint);
+    let multiplier = DirectForm::Multiplier;
     match (
         solved,
         direct_attempt(problem, options, intervals, multiplier, events),
@@ -2055,12 +2048,7 @@ fn direct_route<M: Model>(
 /// than the minimum itself, the minimum is that collapse (the infimum is approached as
 /// `ξ → 0`); otherwise it is a regular minimum the BVP does not converge from.
 fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
-    let omegas: Vec<Vec<f64>> = d
-        .warm
-        .states
-        .chunks_exact(M::N_STATE)
-        .map(|y| y[M::OMEGA].to_vec())
-        .collect();
+    let omegas = d.omegas::<M>();
     let control = super::collapse::along_samples(
         problem,
         problem.params(),
