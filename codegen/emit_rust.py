@@ -294,7 +294,7 @@ def doc_lines(fn):
     for a in fn.args:
         if isinstance(a, Arg):
             syms = ", ".join(str(s) for s in a.symbols)
-            lines.append(f"/// * `{a.name}`: {a.doc} = [{syms}]")
+            lines.append(f"/// * `{a.name}`: {a.doc} = `[{syms}]`")
         else:
             lines.append(f"/// * `{a.name}`: {a.doc}")
     for o in fn.outputs:

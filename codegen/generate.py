@@ -382,7 +382,7 @@ def build_functions(opt):
         [Out("f", sp.Matrix(f), "array", f"f(z), {len(f)} entries"),
          Out("f_z", fg_z[:len(f), :], "matrix",
              "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j"),
-         Out("g", sp.Matrix(g), "array", "g(z) = [phi]"),
+         Out("g", sp.Matrix(g), "array", "g(z) = phi"),
          Out("g_z", fg_z[len(f):, :], "matrix", "dg/dz, row-major")]))
     prog, f = mt.program()
     l_z, l_d = mt.cost_gradient(prog)
