@@ -403,3 +403,58 @@ class MultiplierTranscription(DirectTranscription):
         """As `DirectTranscription.lagrangian_hessian`, with <mu, g> in the point Lagrangian."""
         return super().lagrangian_hessian(prog, list(f), check_points, seed,
                                           extra=sum(m * g for m, g in zip(self.MU, self.path())))
+
+
+class RelaxedTranscription(DirectTranscription):
+    """The limit xi -> 0 of the multiplier form: the relaxed problem whose minimum is the
+    infimum approached by controls with a vanishing xi (docs/collapse.md).
+
+    Along xi = eps d(t) with <Om, d> = 0 (a vanishing constraint value), the force lambda xi
+    stays finite as eps -> 0 (lambda ~ 1/eps): in the limit it is a torque tau with
+    <Om, tau> = 0, free otherwise, and the cost's control terms take their values at
+    xi = xi' = 0. State x = Om, control u = tau, z = [Om, tau] (`Z`); dynamics
+    f(z) = I^-1 (ad*_Om I Om + tau) (the multiplier form's with lambda xi -> tau); path
+    constraint g(z) = <Om, tau> = 0 at every point (the force does no work: the kinetic
+    energy is conserved); running cost L(z, Om_d) = C(Om, f, 0, 0, Om_d). Every motion on
+    the energy level set is reachable, and a relaxed minimum's cost is the limit of the
+    costs of admissible controls xi = eps tau/|tau|. Valid where the constraint value
+    vanishes (callers check it at run time). The Hessian is that of
+    l = w L + <lam, f> + mu g.
+    """
+
+    def __init__(self, opt):
+        super().__init__(opt)
+        M = self.M
+        self.TAU = list(sp.symbols(f"tau1:{M.n + 1}", real=True))
+        self.Z = list(M.Om) + self.TAU
+        self.LAM = list(sp.symbols(f"lam1:{M.n + 1}", real=True))
+        self.MU = [sp.Symbol("mu", real=True)]
+        zero = {s: 0 for s in list(M.xi) + list(M.xiDot)}
+        self.C = opt.C.subs(zero, simultaneous=True)
+        # The same force as the multiplier form's: lambda dphi/dOm = lambda xi (asserted in
+        # `Suslov`), here with lambda xi -> tau.
+        self.omdot = inertia_solve(M, self.suslov.ad_star_mom + sp.Matrix(self.TAU))
+        check_zero(self.omdot.subs(dict(zip(self.TAU, self.suslov.lam_symbol * M.xi)),
+                                   simultaneous=True) - self.suslov.omdot_of_lam,
+                   "the relaxed dynamics are the multiplier form's with lambda xi -> tau")
+
+    def program(self, extra_inputs=()):
+        """A program over z, Om_d (and `extra_inputs`) whose first assignments are
+        Om_dot = f(z). Returns (program, f) with f the n dynamics entries."""
+        M = self.M
+        prog = Program(self.Z + list(M.Om_d) + list(extra_inputs), M.PARAMS)
+        om_dot = prog.let(list(M.OmDot), self.omdot)
+        return prog, list(om_dot)
+
+    def dynamics_jacobian(self, prog, f):
+        """df/dz, n x 2n."""
+        return prog.jacobian(f, self.Z)
+
+    def path(self):
+        """g(z) = [<Om, tau>]."""
+        return [dot(self.M.Om, sp.Matrix(self.TAU))]
+
+    def lagrangian_hessian(self, prog, f, check_points=3, seed=7):
+        """As `DirectTranscription.lagrangian_hessian`, with <mu, g> in the point Lagrangian."""
+        return super().lagrangian_hessian(prog, list(f), check_points, seed,
+                                          extra=sum(m * g for m, g in zip(self.MU, self.path())))

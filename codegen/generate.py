@@ -410,6 +410,50 @@ def build_functions(opt):
              "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
          Out("h_dd", H[nzl:, nzl:], "matrix", "d2l/dOmega_d2")]))
 
+    # ---- the relaxed form: the limit xi -> 0, a torque tau _|_ Omega as the control --------
+    rt = D.RelaxedTranscription(opt)
+    zr_arg = Arg("z", rt.Z, "[x, u] = [Omega, tau] (state x = Omega, control u = tau, the "
+                 "torque lambda xi in the limit xi -> 0)", u(-2.0, 2.0))
+    prog, f = rt.program()
+    g = rt.path()
+    fg_z = prog.jacobian(list(f) + g, rt.Z)
+    fns.append(Function(
+        "relaxed_dynamics",
+        "The dynamics of the relaxed form (the limit xi -> 0 of the multiplier form),\n"
+        "x' = f(z) = I^-1 (ad*_Omega I Omega + tau), its Jacobian df/dz, and the path\n"
+        "constraint g(z) = <Omega, tau> with dg/dz.",
+        prog, [zr_arg, p_arg],
+        [Out("f", sp.Matrix(f), "array", f"f(z), {len(f)} entries"),
+         Out("f_z", fg_z[:len(f), :], "matrix",
+             "df/dz, row-major: `f_z[i][j]` = d f_i / d z_j"),
+         Out("g", sp.Matrix(g), "array", "g(z) = <Omega, tau>"),
+         Out("g_z", fg_z[len(f):, :], "matrix", "dg/dz, row-major")]))
+    prog, f = rt.program()
+    l_z, l_d = rt.cost_gradient(prog)
+    fns.append(Function(
+        "relaxed_cost",
+        "The running cost of the relaxed form, L(z, Omega_d) = C(Omega, f, 0, 0, Omega_d) (the\n"
+        "cost integrand with xi = xi' = 0), and its gradients.",
+        prog, [zr_arg, p_arg, od_arg],
+        [Out("l_z", l_z, "array", "dL/dz"),
+         Out("l_d", l_d, "array", "dL/dOmega_d"),
+         Out("value", rt.C, "return", "L")]))
+    prog, f = rt.program([rt.W] + rt.LAM + rt.MU)
+    H = rt.lagrangian_hessian(prog, f)
+    nzr = len(rt.Z)
+    fns.append(Function(
+        "relaxed_hessian",
+        "Second derivatives of the point Lagrangian l = w L + sum_i lam_i f_i + mu <Omega, tau>\n"
+        "of the relaxed form. Exactly symmetric.",
+        prog, [zr_arg, p_arg, od_arg,
+               Scalar(rt.W, "the weight w of the running cost L", u(0.1, 2.0)),
+               Arg("lam", rt.LAM, "the multipliers of the dynamics rows f_i", u(-2.0, 2.0)),
+               Arg("mu", rt.MU, "the multiplier of the path constraint", u(-2.0, 2.0))],
+        [Out("h_zz", H[:nzr, :nzr], "matrix", "d2l/dz2, `h_zz[i][j]` = d2 l / dz_i dz_j"),
+         Out("h_zd", H[:nzr, nzr:], "matrix",
+             "d2l/dz dOmega_d, `h_zd[i][k]` = d2 l / dz_i dOmega_d_k"),
+         Out("h_dd", H[nzr:, nzr:], "matrix", "d2l/dOmega_d2")]))
+
     # ---- the inertia operator (callers invert it to fill INERTIA_INVERSE_SLOTS) -----------
     prog = Program([], M.PARAMS)
     fns.append(Function(

@@ -463,6 +463,92 @@ macro_rules! model_checks {
                 }
             }
 
+            /// The relaxed form (the limit `ξ → 0`, a torque `τ` as the control): every
+            /// derivative against finite differences, and the limit itself: the multiplier
+            /// form at `ξ = τ/s`, `ξ̇ = 0`, `λ = s` has the same dynamics, and its cost tends
+            /// to the relaxed cost as `s` grows.
+            #[test]
+            fn relaxed_form_is_the_limit_of_the_multiplier_form_and_matches_finite_differences() {
+                const NZ: usize = 2 * DIM;
+                const NX: usize = DIM;
+                const NZM: usize = 3 * DIM + 1;
+                let mut rng = Rng(12);
+                for _ in 0..3 {
+                    let p = params(&mut rng);
+                    let z: [f64; NZ] = vec_of(&mut rng);
+                    let od: [f64; DIM] = vec_of(&mut rng);
+                    let lam: [f64; NX] = vec_of(&mut rng);
+                    let mu: [f64; 1] = vec_of(&mut rng);
+                    let wgt = rng.uniform(0.5, 1.5);
+                    let eval = |z: &[f64; NZ]| {
+                        let (mut f, mut f_z) = ([0.0; NX], [[0.0; NZ]; NX]);
+                        let (mut g, mut g_z) = ([0.0; 1], [[0.0; NZ]; 1]);
+                        relaxed_dynamics(z, &p, &mut f, &mut f_z, &mut g, &mut g_z);
+                        (f, f_z, g, g_z)
+                    };
+                    let (f, f_z, g, g_z) = eval(&z);
+                    let cols = fd(&z, |z| eval(z).0);
+                    let g_cols = fd(&z, |z| eval(z).2);
+                    let mut l_z = [0.0; NZ];
+                    let mut l_d = [0.0; DIM];
+                    let l = relaxed_cost(&z, &p, &od, &mut l_z, &mut l_d);
+                    let l_cols = fd(&z, |z| {
+                        let (mut a, mut b) = ([0.0; NZ], [0.0; DIM]);
+                        [relaxed_cost(z, &p, &od, &mut a, &mut b)]
+                    });
+                    let mut h_zz = [[0.0; NZ]; NZ];
+                    let mut h_zd = [[0.0; DIM]; NZ];
+                    let mut h_dd = [[0.0; DIM]; DIM];
+                    relaxed_hessian(&z, &p, &od, wgt, &lam, &mu, &mut h_zz, &mut h_zd, &mut h_dd);
+                    let h_cols = fd(&z, |z| {
+                        let (mut lz, mut ld) = ([0.0; NZ], [0.0; DIM]);
+                        relaxed_cost(z, &p, &od, &mut lz, &mut ld);
+                        let (_, fz, _, gz) = eval(z);
+                        let mut grad = [0.0; NZ];
+                        for j in 0..NZ {
+                            grad[j] = wgt * lz[j]
+                                + (0..NX).map(|i| lam[i] * fz[i][j]).sum::<f64>()
+                                + mu[0] * gz[0][j];
+                        }
+                        grad
+                    });
+                    for j in 0..NZ {
+                        for i in 0..NX {
+                            assert!(close(f_z[i][j], cols[j][i], RTOL), "f{i}/z{j}");
+                        }
+                        assert!(close(g_z[0][j], g_cols[j][0], RTOL), "g/z{j}");
+                        assert!(close(l_z[j], l_cols[j][0], RTOL), "L/z{j}");
+                        for i in 0..NZ {
+                            assert!(close(h_zz[i][j], h_cols[j][i], 1e-5), "h_zz[{i}][{j}]");
+                            assert_eq!(h_zz[i][j], h_zz[j][i], "symmetric");
+                        }
+                    }
+                    let pairing: f64 = (0..DIM).map(|k| z[k] * z[DIM + k]).sum();
+                    assert!(close(g[0], pairing, 1e-14), "g = <Omega, tau>");
+                    // The limit: xi = tau / s, xi' = 0, lambda = s.
+                    let mut costs = vec![];
+                    for s in [1e2, 1e4, 1e6] {
+                        let mut zm = [0.0; NZM];
+                        zm[..DIM].copy_from_slice(&z[..DIM]);
+                        for k in 0..DIM {
+                            zm[DIM + k] = z[DIM + k] / s;
+                        }
+                        zm[NZM - 1] = s;
+                        let (mut fm, mut fm_z) = ([0.0; 2 * DIM], [[0.0; NZM]; 2 * DIM]);
+                        let (mut gm, mut gm_z) = ([0.0; 1], [[0.0; NZM]; 1]);
+                        multiplier_dynamics(&zm, &p, &mut fm, &mut fm_z, &mut gm, &mut gm_z);
+                        for i in 0..DIM {
+                            assert!(close(fm[i], f[i], 1e-12), "f{i} at s = {s}");
+                        }
+                        let (mut a, mut b) = ([0.0; NZM], [0.0; DIM]);
+                        costs.push((multiplier_cost(&zm, &p, &od, &mut a, &mut b) - l).abs());
+                    }
+                    // The gap is O(|xi|^2) = O(1/s^2): it falls by about 1e4 per step.
+                    assert!(costs[2] <= 1e-9 * (1.0 + l.abs()), "limit gaps {costs:?}");
+                    assert!(costs[1] <= costs[0] * 1e-3 + 1e-14, "limit gaps {costs:?}");
+                }
+            }
+
             #[test]
             fn suslov_equations_keep_the_constraint_and_balance_the_energy() {
                 let mut rng = Rng(4);

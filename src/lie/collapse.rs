@@ -94,6 +94,9 @@ pub enum Motion {
     /// ([`super::direct`]): the spline through its `Ω` at the collocation points, projected
     /// onto the level set.
     DirectMinimum,
+    /// The motion of the relaxed problem's minimum ([`super::relaxed`]: the limit `ξ → 0`,
+    /// a torque `τ ⟂ Ω` as the control), through its `Ω` at the collocation points.
+    RelaxedMinimum,
 }
 
 impl Motion {
@@ -104,6 +107,7 @@ impl Motion {
             Motion::DesiredPath => "the projected desired path",
             Motion::Solution => "the computed solution's motion",
             Motion::DirectMinimum => "the motion of the direct method's minimum",
+            Motion::RelaxedMinimum => "the motion of the relaxed problem's minimum (xi -> 0)",
         }
     }
 }
@@ -364,6 +368,61 @@ pub fn along_samples<M: Model>(
     along_path(problem, params, &path, span, motion)
 }
 
+/// What the relaxed problem ([`super::relaxed`]) gave for a fixed-time problem.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum RelaxedOutcome {
+    /// Its minimum on two meshes, and the admissible control along the finer one's motion
+    /// (in [`CollapseEvidence::controls`], motion [`Motion::RelaxedMinimum`]).
+    Computed {
+        /// The intervals of the two meshes.
+        intervals: [usize; 2],
+        /// The discrete minima on them.
+        costs: [f64; 2],
+        /// The SQP's iterations on each.
+        iterations: [usize; 2],
+    },
+    /// No minimum was computed (e.g. a cost without an `Ω̇` term: the relaxed problem is
+    /// degenerate), or its control could not be evaluated.
+    Failed {
+        /// Why.
+        reason: String,
+    },
+}
+
+/// The relaxed minimum of `problem` (fixed `b`; [`super::relaxed::relaxed_minimum`]) and the
+/// admissible control `ξ = ε τ̂` along its finer motion ([`along_samples`], re-integrated).
+pub fn along_relaxed<M: Model>(problem: &Problem<M>) -> (RelaxedOutcome, Option<CollapsedControl>) {
+    let relaxed = match super::relaxed::relaxed_minimum(problem) {
+        Ok(r) => r,
+        Err(e) => {
+            let reason = e.to_string();
+            return (RelaxedOutcome::Failed { reason }, None);
+        }
+    };
+    let (coarse, fine) = (&relaxed.coarse, &relaxed.fine);
+    match along_samples(
+        problem,
+        problem.params(),
+        &fine.times,
+        &fine.omegas,
+        Motion::RelaxedMinimum,
+    ) {
+        Ok(control) => (
+            RelaxedOutcome::Computed {
+                intervals: [coarse.intervals, fine.intervals],
+                costs: [coarse.cost, fine.cost],
+                iterations: [coarse.report.iterations, fine.report.iterations],
+            },
+            Some(control),
+        ),
+        Err(e) => {
+            let reason = format!("the control along the relaxed minimum: {e}");
+            (RelaxedOutcome::Failed { reason }, None)
+        }
+    }
+}
+
 /// [`along_path`] on the projected segment `Ω_a → Ω_b` over `[a, a + span]`.
 pub fn along_segment<M: Model>(
     problem: &Problem<M>,
@@ -526,6 +585,8 @@ pub struct CollapseEvidence {
     pub compared_with: &'static str,
     /// Whether [`Self::least`] costs less than that ([`undercuts`]).
     pub undercuts: bool,
+    /// The relaxed problem's minimum, for a fixed terminal time (`None` for a free one).
+    pub relaxed: Option<RelaxedOutcome>,
     /// Free terminal time: the cheapest control is at the shortest span tried and the costs
     /// fall toward it, so the infimum is approached as `b → a` and no optimal `b` exists.
     pub no_optimal_time: bool,
@@ -534,18 +595,26 @@ pub struct CollapseEvidence {
 }
 
 /// The controls for `problem` at its own constants: for a free terminal time the projected
-/// segment over the spans of [`best_span`] around `span`, else the segment at `span`; the
-/// projected desired path at `span` when it joins the end points.
-fn candidates<M: Model>(problem: &Problem<M>, span: f64, free: bool) -> Vec<CollapsedControl> {
-    let mut controls = if free {
-        best_span(problem, span)
+/// segment over the spans of [`best_span`] around `span`; for a fixed one the segment at
+/// `span` and the relaxed minimum's motion ([`along_relaxed`], whose outcome is returned
+/// too); the projected desired path at `span` when it joins the end points.
+fn candidates<M: Model>(
+    problem: &Problem<M>,
+    span: f64,
+    free: bool,
+) -> (Vec<CollapsedControl>, Option<RelaxedOutcome>) {
+    let (mut controls, relaxed) = if free {
+        (best_span(problem, span), None)
     } else {
-        along_segment(problem, problem.params(), span)
+        let mut controls: Vec<CollapsedControl> = along_segment(problem, problem.params(), span)
             .into_iter()
-            .collect()
+            .collect();
+        let (outcome, control) = along_relaxed(problem);
+        controls.extend(control);
+        (controls, Some(outcome))
     };
     controls.extend(along_desired(problem, problem.params(), span));
-    controls
+    (controls, relaxed)
 }
 
 /// Whether the cheapest of `controls` is the shortest span and the costs fall toward it over
@@ -562,7 +631,7 @@ fn falls_to_shortest(controls: &[CollapsedControl], least: &CollapsedControl) ->
 }
 
 fn evidence(
-    controls: Vec<CollapsedControl>,
+    (controls, relaxed): (Vec<CollapsedControl>, Option<RelaxedOutcome>),
     compared_cost: f64,
     compared_with: &'static str,
     quadrature: f64,
@@ -571,7 +640,7 @@ fn evidence(
     let least = cheapest(&controls)?;
     let undercuts = undercuts(&least, compared_cost, quadrature);
     let no_optimal_time = free && undercuts && falls_to_shortest(&controls, &least);
-    let sentence = if undercuts {
+    let mut sentence = if undercuts {
         let mut s = format!(
             "an admissible control with |xi| = {:.0e} along {} over b - a = {:.6} costs J = {:.6}, \
              less than {compared_with} (J = {compared_cost:.6}; its motion re-integrated to \
@@ -599,12 +668,23 @@ fn evidence(
             least.span
         )
     };
+    if let Some(RelaxedOutcome::Computed {
+        intervals, costs, ..
+    }) = &relaxed
+    {
+        sentence.push_str(&format!(
+            "; the relaxed problem (the limit xi -> 0: a torque orthogonal to Omega as the \
+             control) has its minimum at J = {:.8} on {} intervals ({:.8} on {})",
+            costs[1], intervals[1], costs[0], intervals[0]
+        ));
+    }
     Some(CollapseEvidence {
         controls,
         least,
         compared_cost,
         compared_with,
         undercuts,
+        relaxed,
         no_optimal_time,
         sentence,
     })
@@ -624,8 +704,8 @@ pub fn for_solution<M: Model>(
         sol.problem.terminal,
         super::problem::TerminalTime::Free { .. }
     );
-    let controls = candidates(&sol.problem, sol.t_span, free);
-    evidence(controls, cost, "the computed extremal", quadrature, free)
+    let found = candidates(&sol.problem, sol.t_span, free);
+    evidence(found, cost, "the computed extremal", quadrature, free)
 }
 
 /// The evidence for a problem whose homotopy stopped at `partial`: the controls for `problem`
@@ -644,7 +724,7 @@ pub fn for_stop<M: Model>(
     }
     let free = matches!(problem.terminal, super::problem::TerminalTime::Free { .. });
     let span = problem.terminal.initial() - problem.t0;
-    let mut controls = candidates(problem, span, free);
+    let (mut controls, relaxed) = candidates(problem, span, free);
     if !free {
         controls.extend(along_solution(partial, problem.params()));
     }
@@ -659,14 +739,14 @@ pub fn for_stop<M: Model>(
     }
     match scan_least {
         Some(j) => evidence(
-            controls,
+            (controls, relaxed),
             j,
             "every fixed-time extremal of the value-function scan",
             0.0,
             free,
         ),
         None => evidence(
-            controls,
+            (controls, relaxed),
             partial.cost_with(problem.params()),
             "the last solution's control at the target weights",
             0.0,

@@ -235,7 +235,7 @@ pub fn direct_start_in<M: Model>(
 /// constraint Jacobian nearly rank-deficient (the discrete dynamics conserve the energy up to
 /// the discretization error), which the SQP's inertia correction cannot repair (as in
 /// `bench/casadi_direct.py`). The BVP solved from the direct minimum imposes `Ω(b) = Ω_b`.
-fn tangential_end<'a, M: Model, P: OcpProblem>(
+pub(super) fn tangential_end<'a, M: Model, P: OcpProblem>(
     problem: &Problem<M>,
     tr: Transcription<'a, P>,
 ) -> Result<Transcription<'a, P>, ocp::TranscriptionError> {

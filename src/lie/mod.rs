@@ -16,6 +16,8 @@
 //! - [`direct`]: the direct start (a minimum of the transcribed problem by SQP) for the BVP;
 //! - [`multiplier`]: the multiplier form of the control problem (`λ` a control, the constraint
 //!   a path constraint; defined where `ξ` vanishes), for the direct start;
+//! - [`relaxed`]: its limit `ξ → 0` (a torque `τ ⟂ Ω` as the control), whose minimum is the
+//!   infimum approached by controls with a vanishing `ξ`, for the stops' evidence;
 //! - [`controllability`]: the accessibility rank test along a solution.
 //!
 //! This layer knows nothing of the so(3) problem layer ([`crate::so3`]), which predates it
@@ -35,6 +37,7 @@ pub mod expression;
 pub mod multiplier;
 pub mod path;
 pub mod problem;
+pub mod relaxed;
 pub mod solve;
 pub mod verify;
 

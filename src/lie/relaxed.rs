@@ -1,0 +1,283 @@
+//! The relaxed problem: the limit `ξ → 0` of the control problem, whose minimum is the
+//! infimum that controls with a vanishing `ξ` approach.
+//!
+//! # Why
+//!
+//! When the constraint value vanishes, a control `ξ = ε d(t)` with `⟨Ω, d⟩ = 0` drives any
+//! motion on the energy level set, and as `ε → 0` its cost tends to the cost of the motion
+//! alone with the control terms at `ξ = ξ̇ = 0` ([`super::collapse`], docs/collapse.md). On
+//! many corpus problems the minimizing controls do exactly that: the cost's infimum is
+//! approached as `ξ → 0` and no control attains it, so the optimality system (singular at
+//! `ξ = 0`) has nothing to converge to. [`super::collapse`] shows such controls costing less
+//! than every extremal found; the relaxed problem computes the least of them, which is what
+//! a stop should name as the infimum.
+//!
+//! # The formulation
+//!
+//! In the limit the force `λξ` stays finite (`λ ~ 1/ε`): it becomes a torque `τ` with
+//! `⟨Ω, τ⟩ = 0`, otherwise free.
+//!
+//! ```text
+//! state x = Ω,   control u = τ,   z = [Ω, τ]
+//! Ω̇ = 𝕀⁻¹(ad*_Ω 𝕀Ω + τ),   path: ⟨Ω, τ⟩ = 0 at every collocation point,
+//! running cost C(Ω, Ω̇, ξ = 0, ξ̇ = 0, Ω_d(t)),   Ω(a) = Ω_a,  Ω(b) = Ω_b (along the level set).
+//! ```
+//!
+//! Every derivative, to second order, is generated from the model file (`relaxed_dynamics`,
+//! `relaxed_cost`, `relaxed_hessian`; `codegen/derive.py`, `RelaxedTranscription`, which
+//! asserts that the dynamics are the multiplier form's with `λξ → τ`).
+//! [`relaxed_minimum`] minimizes its transcription with [`crate::ocp::sqp()`] from the
+//! projected segment `Ω_a → Ω_b` (τ from its inverse dynamics), on [`RELAXED_INTERVALS`]
+//! intervals and on twice as many (their difference estimates the discretization error).
+//! [`super::collapse::along_relaxed`] drives the minimum's motion by an admissible control
+//! `ξ = ε τ̂` and re-integrates it: that control's cost, not the discrete value, is the upper
+//! bound a stop reports; the discrete values show how close it is to the relaxed minimum.
+//!
+//! With no term of the cost that depends on `Ω̇` (the paper's `η = 0`), the relaxed problem
+//! is degenerate: `τ` enters no cost, the motion may jump, and the SQP's KKT matrix is
+//! singular. [`relaxed_minimum`] then fails with the SQP's reason.
+
+use std::marker::PhantomData;
+
+use crate::model::Model;
+use crate::ocp::{self, OcpProblem, SqpOptions, SqpReport, Transcription};
+
+use super::direct::{tangential_end, DirectError};
+use super::path::{projected_segment, Path};
+use super::problem::{with_buffer, Problem, TerminalTime, ENERGY_REL_TOL};
+
+/// Intervals of the coarser of the two relaxed transcriptions.
+pub const RELAXED_INTERVALS: usize = 100;
+
+/// Tolerance of the relaxed SQP (relative stationarity and feasibility).
+pub const RELAXED_TOLERANCE: f64 = 1e-9;
+
+/// Iteration limit of the relaxed SQP.
+pub const RELAXED_MAX_ITERATIONS: usize = 200;
+
+/// The relaxed form of a model's problem (module docs).
+pub struct RelaxedOcp<'a, M: Model> {
+    params: &'a [f64],
+    desired: &'a dyn Path,
+    model: PhantomData<M>,
+}
+
+impl<'a, M: Model> RelaxedOcp<'a, M> {
+    /// The relaxed form of `problem` (its constants and desired path).
+    pub fn for_problem(problem: &'a Problem<M>) -> Self {
+        Self {
+            params: problem.params(),
+            desired: &*problem.desired,
+            model: PhantomData,
+        }
+    }
+
+    /// `x = Ω`.
+    pub const NX: usize = M::DIM;
+    /// `z = [Ω, τ]`.
+    pub const NZ: usize = 2 * M::DIM;
+
+    /// The torque `τ = 𝕀 (Ω̇ − 𝕀⁻¹ ad*_Ω 𝕀Ω)` that drives `Ω̇` at `Ω` (exact: the dynamics are
+    /// affine in `τ`); `z` holds `[Ω, ·]`, its `τ` entries are overwritten.
+    pub fn fit_tau(&self, z: &mut [f64], omega_dot: &[f64]) {
+        let n = M::DIM;
+        let (nx, nz) = (Self::NX, Self::NZ);
+        with_buffer(nx + nx * nz + 1 + nz + n * n, |buf| {
+            let (f0, rest) = buf.split_at_mut(nx);
+            let (f_z, rest) = rest.split_at_mut(nx * nz);
+            let (g, rest) = rest.split_at_mut(1);
+            let (g_z, inertia) = rest.split_at_mut(nz);
+            z[n..].fill(0.0);
+            M::relaxed_dynamics(z, self.params, f0, f_z, g, g_z);
+            M::inertia_matrix(self.params, inertia);
+            for i in 0..n {
+                z[n + i] = (0..n)
+                    .map(|j| inertia[i * n + j] * (omega_dot[j] - f0[j]))
+                    .sum();
+            }
+        });
+    }
+}
+
+impl<M: Model> OcpProblem for RelaxedOcp<'_, M> {
+    fn n_state(&self) -> usize {
+        Self::NX
+    }
+
+    fn n_control(&self) -> usize {
+        M::DIM
+    }
+
+    fn dynamics(&self, _t: f64, z: &[f64], f: &mut [f64], f_z: &mut [f64], f_t: &mut [f64]) {
+        let nz = Self::NZ;
+        with_buffer(1 + nz, |buf| {
+            let (g, g_z) = buf.split_at_mut(1);
+            M::relaxed_dynamics(z, self.params, f, f_z, g, g_z);
+        });
+        f_t.fill(0.0); // autonomous
+    }
+
+    fn running_cost(&self, t: f64, z: &[f64], l_z: &mut [f64]) -> (f64, f64) {
+        let n = M::DIM;
+        with_buffer(5 * n, |buf| {
+            let (jet, l_d) = buf.split_at_mut(4 * n);
+            self.desired.jet_into(t, jet);
+            let l = M::relaxed_cost(z, self.params, &jet[..n], l_z, l_d);
+            let l_t = l_d.iter().zip(&jet[n..2 * n]).map(|(l, d)| l * d).sum();
+            (l, l_t)
+        })
+    }
+
+    fn n_path(&self) -> usize {
+        1
+    }
+
+    fn path(&self, _t: f64, z: &[f64], g: &mut [f64], g_z: &mut [f64], g_t: &mut [f64]) {
+        let (nx, nz) = (Self::NX, Self::NZ);
+        with_buffer(nx + nx * nz, |buf| {
+            let (f, f_z) = buf.split_at_mut(nx);
+            M::relaxed_dynamics(z, self.params, f, f_z, g, g_z);
+        });
+        g_t[0] = 0.0;
+    }
+
+    fn lagrangian_hessian(&self, t: f64, z: &[f64], w: f64, lambda: &[f64], h: &mut [f64]) {
+        let (n, nx, nz) = (M::DIM, Self::NX, Self::NZ);
+        let mut jet = vec![0.0; 4 * n];
+        self.desired.jet_into(t, &mut jet);
+        let od = &jet[..n];
+        let mut h_zz = vec![0.0; nz * nz];
+        let mut h_zd = vec![0.0; nz * n];
+        let mut h_dd = vec![0.0; n * n];
+        M::relaxed_hessian(
+            z,
+            self.params,
+            od,
+            w,
+            &lambda[..nx],
+            &lambda[nx..],
+            &mut h_zz,
+            &mut h_zd,
+            &mut h_dd,
+        );
+        let mut lz = vec![0.0; nz];
+        let mut ld = vec![0.0; n];
+        M::relaxed_cost(z, self.params, od, &mut lz, &mut ld);
+        super::certify::with_time(nz, n, &h_zz, &h_zd, &h_dd, w, &ld, &jet, h);
+    }
+}
+
+/// One discrete relaxed minimum.
+#[derive(Debug, Clone)]
+pub struct RelaxedLevel {
+    /// Intervals of its mesh.
+    pub intervals: usize,
+    /// Its discrete cost.
+    pub cost: f64,
+    /// The SQP's iterations.
+    pub report: SqpReport,
+    /// The collocation points' times.
+    pub times: Vec<f64>,
+    /// `Ω` at the collocation points, one row each.
+    pub omegas: Vec<Vec<f64>>,
+}
+
+/// The relaxed minimum of a fixed-time problem (module docs).
+#[derive(Debug, Clone)]
+pub struct RelaxedMinimum {
+    /// On [`RELAXED_INTERVALS`] intervals.
+    pub coarse: RelaxedLevel,
+    /// On twice as many.
+    pub fine: RelaxedLevel,
+}
+
+impl RelaxedMinimum {
+    /// `|J_fine − J_coarse|`, an estimate of the coarse discretization error (the finer is
+    /// better by the method's order).
+    pub fn discretization_gap(&self) -> f64 {
+        (self.fine.cost - self.coarse.cost).abs()
+    }
+}
+
+/// Why no relaxed minimum was computed.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum RelaxedError {
+    /// The constraint value does not vanish: `ξ → 0` is not admissible.
+    #[error("the constraint value is not zero: xi -> 0 is not admissible")]
+    ConstraintValue,
+    /// Only fixed terminal times are relaxed.
+    #[error("the relaxed problem is solved for a fixed terminal time only")]
+    FreeTime,
+    /// The start, the transcription or the SQP.
+    #[error("{0}")]
+    Direct(#[from] DirectError),
+}
+
+/// The relaxed minimum of `problem` (fixed `b`, vanishing constraint value; module docs).
+pub fn relaxed_minimum<M: Model>(problem: &Problem<M>) -> Result<RelaxedMinimum, RelaxedError> {
+    if !problem.conserves_energy() {
+        return Err(RelaxedError::ConstraintValue);
+    }
+    let TerminalTime::Fixed(b) = problem.terminal else {
+        return Err(RelaxedError::FreeTime);
+    };
+    let span = b - problem.t0;
+    let start = projected_segment(
+        &problem.level_set(),
+        &problem.omega_a,
+        &problem.omega_b,
+        problem.t0,
+        b,
+        ENERGY_REL_TOL,
+    )
+    .map_err(|e| DirectError::Start(e.to_string()))?;
+    let coarse = level(problem, RELAXED_INTERVALS, span, &start)?;
+    let fine = level(problem, 2 * RELAXED_INTERVALS, span, &start)?;
+    Ok(RelaxedMinimum { coarse, fine })
+}
+
+/// The discrete relaxed minimum on a uniform mesh of `intervals` intervals, from `start`.
+fn level<M: Model>(
+    problem: &Problem<M>,
+    intervals: usize,
+    span: f64,
+    start: &dyn Path,
+) -> Result<RelaxedLevel, DirectError> {
+    let n = M::DIM;
+    let ocp_problem = RelaxedOcp::<M>::for_problem(problem);
+    let mesh: Vec<f64> = (0..=intervals)
+        .map(|k| k as f64 / intervals as f64)
+        .collect();
+    let (boundary, horizon) = super::certify::ends_and_horizon(problem, vec![]);
+    let tr = Transcription::new(&ocp_problem, boundary, horizon, mesh)?;
+    let tr = tangential_end(problem, tr)?;
+    let v0 = tr.primal_from_fn(span, |t, z| {
+        with_buffer(4 * n, |jet| {
+            start.jet_into(t, jet);
+            z[..n].copy_from_slice(&jet[..n]);
+            ocp_problem.fit_tau(z, &jet[n..2 * n]);
+        });
+    });
+    let options = SqpOptions {
+        tolerance: RELAXED_TOLERANCE,
+        max_iterations: RELAXED_MAX_ITERATIONS,
+        ..SqpOptions::default()
+    };
+    let (point, report) = ocp::sqp(&tr, v0, &options)?;
+    let t_len = tr.length(&point.v);
+    let nz = tr.nz();
+    let (times, omegas) = point
+        .v
+        .chunks_exact(nz)
+        .take(tr.n_points())
+        .enumerate()
+        .map(|(p, z)| (tr.point_time(p, t_len), z[..n].to_vec()))
+        .unzip();
+    Ok(RelaxedLevel {
+        intervals,
+        cost: tr.objective(&point.v),
+        report,
+        times,
+        omegas,
+    })
+}

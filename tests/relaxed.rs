@@ -1,0 +1,140 @@
+//! The relaxed problem (`suslov::lie::relaxed`): the limit ξ → 0 of the control problem, a
+//! torque τ ⟂ Ω as the control. Where the minimizing controls collapse over the whole
+//! interval, its minimum is the infimum that the independent direct method
+//! (`bench/casadi_direct.py`, IPOPT on 400 intervals, session 11; numbers in bench/README.md)
+//! found; where a regular minimum exists, the relaxed minimum lies above it.
+
+use std::path::{Path, PathBuf};
+
+use suslov::lie::collapse::{self, Motion, RelaxedOutcome};
+use suslov::lie::relaxed::{relaxed_minimum, RelaxedError, RELAXED_INTERVALS};
+use suslov::lie::Problem;
+use suslov::model::so3::So3;
+
+#[path = "corpus/mod.rs"]
+mod corpus;
+
+fn dir() -> PathBuf {
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join("relaxed");
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn load(path: &Path) -> Problem<So3> {
+    let loaded = suslov::config::load(path).unwrap_or_else(|e| panic!("{e}"));
+    loaded.problem.to_generic().expect("a valid so3 problem")
+}
+
+fn hard(file: &str) -> Problem<So3> {
+    load(
+        &Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/corpus/hard")
+            .join(file),
+    )
+}
+
+/// The generated corpus problems `ids` (seed and size of the benchmark).
+fn corpus_problems(ids: &[&str]) -> Vec<Problem<So3>> {
+    let all = corpus::generate(corpus::DEFAULT_N, corpus::SEED);
+    ids.iter()
+        .map(|id| {
+            let p = all.iter().find(|p| p.id == *id).expect("a corpus id");
+            assert!(p.samples.is_none(), "{id}: no samples file needed");
+            let path = dir().join(format!("{id}.toml"));
+            std::fs::write(&path, &p.toml).unwrap();
+            load(&path)
+        })
+        .collect()
+}
+
+fn rel(a: f64, b: f64) -> f64 {
+    (a - b).abs() / b.abs()
+}
+
+/// IPOPT's minima, where it found that ξ collapses over the whole interval, against the
+/// relaxed minimum on both meshes and the re-integrated admissible control along its motion.
+#[test]
+fn the_relaxed_minimum_is_the_independent_infimum_where_the_whole_interval_collapses() {
+    let mut cases = vec![(
+        "issue #12's beta-stage file".to_string(),
+        hard("issue12_beta_stage_fixed.toml"),
+        44.27118405,
+    )];
+    let ids = [
+        "issue12-065",
+        "issue12-142",
+        "short-036",
+        "short-097",
+        "spiral-009",
+    ];
+    let ipopt = [
+        0.2021128849,
+        0.3563462474,
+        0.200046644,
+        1.22641468,
+        1.861806582,
+    ];
+    for ((id, problem), j) in ids.iter().zip(corpus_problems(&ids)).zip(ipopt) {
+        cases.push((id.to_string(), problem, j));
+    }
+    for (name, problem, ipopt) in &cases {
+        let r = relaxed_minimum(problem).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert_eq!(r.coarse.intervals, RELAXED_INTERVALS);
+        assert_eq!(r.fine.intervals, 2 * RELAXED_INTERVALS);
+        // IPOPT's own discretization (400 intervals, Radau 3) and its printed digits.
+        assert!(
+            rel(r.fine.cost, *ipopt) < 1e-7,
+            "{name}: {} vs {ipopt}",
+            r.fine.cost
+        );
+        assert!(
+            rel(r.coarse.cost, *ipopt) < 3e-7,
+            "{name}: {} vs {ipopt}",
+            r.coarse.cost
+        );
+        let (outcome, control) = collapse::along_relaxed(problem);
+        let control = control.unwrap_or_else(|| panic!("{name}: {outcome:?}"));
+        assert_eq!(control.motion, Motion::RelaxedMinimum);
+        // An admissible control (|xi| = 1e-6), its motion re-integrated: within the
+        // discretization of the relaxed minimum of the infimum.
+        assert!(control.reintegration_error < 1e-8, "{name}: {control:?}");
+        assert!(
+            rel(control.cost, *ipopt) < 1e-7,
+            "{name}: {control:?} vs {ipopt}"
+        );
+        assert!(matches!(outcome, RelaxedOutcome::Computed { .. }));
+    }
+}
+
+/// Corpus problem fast-198 has a regular minimum (the direct method's, cost 169.599 with
+/// min |ξ| 0.894, session 15): the relaxed minimum, the least a collapsing control can
+/// approach, lies above it.
+#[test]
+fn a_regular_minimum_lies_below_the_relaxed_minimum() {
+    let problem = corpus_problems(&["fast-198"]).remove(0);
+    let r = relaxed_minimum(&problem).unwrap();
+    assert!(rel(r.fine.cost, 174.07645980) < 1e-8, "{}", r.fine.cost);
+    assert!(r.fine.cost > 169.6);
+}
+
+/// Without a term of the cost in Ω̇ (η = 0), τ enters no cost and the relaxed problem is
+/// degenerate: it fails with the SQP's reason instead of returning a number (corpus problem
+/// short-056; the collapsed controls of the stop's evidence remain).
+#[test]
+fn the_relaxed_problem_without_a_rate_term_fails_with_a_reason() {
+    let problem = corpus_problems(&["short-056"]).remove(0);
+    match relaxed_minimum(&problem) {
+        Err(RelaxedError::Direct(e)) => assert!(e.to_string().contains("SQP"), "{e}"),
+        other => panic!("{other:?}"),
+    }
+}
+
+/// A free terminal time is not relaxed (the paper's problems): no outcome, nothing computed.
+#[test]
+fn a_free_terminal_time_is_not_relaxed() {
+    let problem = hard("issue12_delta_stage_free.toml");
+    assert!(matches!(
+        relaxed_minimum(&problem),
+        Err(RelaxedError::FreeTime)
+    ));
+}
