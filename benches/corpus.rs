@@ -408,13 +408,18 @@ fn main() {
             ),
             Some(_) => "not undercut".to_string(),
         };
+        let found = match o.collapse.and_then(|f| f.relaxed) {
+            Some(status) => format!("{found}; relaxed minimum {status}"),
+            None => found,
+        };
         *collapse.entry((kind, found)).or_default() += 1;
     }
     let _ = writeln!(
         r,
         "Controls with a vanishing xi (`suslov::lie::collapse`; `undercut`: one costs less than \
          the extremal, or than the stop's comparison; the cheapest control's motion in \
-         parentheses):\n"
+         parentheses; for a fixed b, whether the relaxed problem's minimum, the limit xi -> 0, \
+         was computed):\n"
     );
     let _ = writeln!(r, "| problems | finding | count |\n|---|---|---|");
     for ((kind, found), c) in &collapse {

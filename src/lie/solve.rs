@@ -2043,38 +2043,71 @@ fn direct_route<M: Model>(
 }
 
 /// What the direct start's minimum `d` (which the BVP could not take up) says about `problem`,
-/// for a stop without a partial solution: when a control with a vanishing `ξ` along the
-/// minimum's own motion ([`super::collapse::along_samples`], re-integrated) costs no more
-/// than the minimum itself, the minimum is that collapse (the infimum is approached as
-/// `ξ → 0`); otherwise it is a regular minimum the BVP does not converge from.
+/// for a stop without a partial solution. The controls with a vanishing `ξ` evaluated are the
+/// one along the minimum's own motion ([`super::collapse::along_samples`]) and, for a fixed
+/// `b`, the one along the relaxed minimum's ([`super::collapse::along_relaxed`]), both
+/// re-integrated. When the cheaper costs no more than the minimum itself, the minimizing
+/// controls collapse (the infimum is approached as `ξ → 0`); otherwise the minimum is a
+/// regular one the BVP does not converge from.
 fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
+    use super::collapse::{self, Motion, RelaxedOutcome};
     let omegas = d.omegas::<M>();
-    let control = super::collapse::along_samples(
+    let along_direct = collapse::along_samples(
         problem,
         problem.params(),
         &d.warm.times,
         &omegas,
-        super::collapse::Motion::DirectMinimum,
+        Motion::DirectMinimum,
     );
+    let (relaxed, along_relaxed) = match problem.terminal {
+        TerminalTime::Fixed(_) => {
+            let (outcome, control) = collapse::along_relaxed(problem);
+            (Some(outcome), control)
+        }
+        TerminalTime::Free { .. } => (None, None),
+    };
     let head = format!(
         "the direct method's minimum of the transcribed problem costs {:.6} with min |xi| {:.2e}",
         d.cost, d.min_xi
     );
-    match control {
+    let controls: Vec<_> = along_direct
+        .clone()
+        .into_iter()
+        .chain(along_relaxed)
+        .collect();
+    let mut finding = match collapse::cheapest(&controls) {
         // The discrete cost is a quadrature on the direct mesh: a relative 1e-3 for its error.
-        Ok(c) if c.cost <= d.cost * (1.0 + 1e-3) => format!(
-            "{head}, and an admissible control with |xi| = {:.0e} along its motion costs J = \
-             {:.6} (re-integrated to within {:.1e}): the minimizing controls collapse, the \
-             infimum is approached as xi -> 0, where the optimality system is singular",
-            c.eps, c.cost, c.reintegration_error
+        Some(c) if c.cost <= d.cost * (1.0 + 1e-3) => format!(
+            "{head}, and an admissible control with |xi| = {:.0e} along {} costs J = {:.6} \
+             (re-integrated to within {:.1e}): the minimizing controls collapse, the infimum is \
+             approached as xi -> 0, where the optimality system is singular",
+            c.eps,
+            c.motion.describe(),
+            c.cost,
+            c.reintegration_error
         ),
-        Ok(c) => format!(
-            "{head} (a regular minimum: a control with a vanishing xi along its motion costs \
+        Some(c) => format!(
+            "{head} (a regular minimum: the least control with a vanishing xi, along {}, costs \
              {:.6}), but the BVP does not converge from it",
+            c.motion.describe(),
             c.cost
         ),
-        Err(e) => format!("{head} (its motion with a vanishing xi: {e})"),
+        None => match along_direct {
+            Err(e) => format!("{head} (its motion with a vanishing xi: {e})"),
+            Ok(_) => head,
+        },
+    };
+    if let Some(RelaxedOutcome::Computed {
+        intervals, costs, ..
+    }) = relaxed
+    {
+        finding.push_str(&format!(
+            "; the relaxed problem (the limit xi -> 0) has its minimum at J = {:.8} on {} \
+             intervals ({:.8} on {})",
+            costs[1], intervals[1], costs[0], intervals[0]
+        ));
     }
+    finding
 }
 
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the

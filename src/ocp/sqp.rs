@@ -319,11 +319,12 @@ pub fn sqp<P: OcpProblem + ?Sized>(
         let mut delta_c = 0.0;
         let factor: LbltFactor = loop {
             let values = kkt.values_regularized(&vec![delta; nv], &h, &a, delta_c);
-            // A factorization refused as unreliable (tiny pivots: nearly singular) counts as
-            // a wrong inertia: the correction is raised.
+            // A factorization refused as unreliable (tiny pivots: nearly singular) or broken
+            // down at a zero pivot (singular) counts as a wrong inertia with zero
+            // eigenvalues: the correction is raised.
             let (inertia, factor) = match kkt.factorize_unproven(&values) {
                 Ok(f) => (f.inertia(), Some(f)),
-                Err(InertiaError::Unreliable { .. }) => (
+                Err(InertiaError::Unreliable { .. } | InertiaError::Breakdown { .. }) => (
                     Inertia {
                         positive: 0,
                         negative: 0,

@@ -832,8 +832,10 @@ pub struct CollapseFlags {
     pub undercuts: bool,
     pub no_optimal_time: bool,
     /// The motion of the cheapest control (`projected_segment`, `desired_path`, `solution`,
-    /// `direct_minimum`).
+    /// `direct_minimum`, `relaxed_minimum`).
     pub least_motion: Option<&'static str>,
+    /// The relaxed minimum's status (`computed`, `failed`), for a fixed terminal time.
+    pub relaxed: Option<&'static str>,
 }
 
 /// `out/summary.json`'s `extra.collapse` flags, if recorded.
@@ -846,12 +848,19 @@ pub fn collapse_flags(out: &Path) -> Option<CollapseFlags> {
         Some("desired_path") => Some("desired_path"),
         Some("solution") => Some("solution"),
         Some("direct_minimum") => Some("direct_minimum"),
+        Some("relaxed_minimum") => Some("relaxed_minimum"),
+        _ => None,
+    };
+    let relaxed = match c["relaxed"]["status"].as_str() {
+        Some("computed") => Some("computed"),
+        Some("failed") => Some("failed"),
         _ => None,
     };
     Some(CollapseFlags {
         undercuts: c.get("undercuts")?.as_bool()?,
         no_optimal_time: c.get("no_optimal_time")?.as_bool()?,
         least_motion,
+        relaxed,
     })
 }
 
