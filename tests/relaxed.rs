@@ -136,12 +136,43 @@ fn without_a_rate_term_the_relaxed_minimum_is_still_the_infimum() {
     assert!(rel(r.fine.cost, 0.02272735017) < 1e-7, "{}", r.fine.cost);
 }
 
-/// A free terminal time is not relaxed (the paper's problems): no outcome, nothing computed.
+/// A free terminal time is an unknown of the relaxed problem when the cost has a term in Ω̇
+/// (issue #12's delta-stage file, η = 0.0101): the relaxed minimum's span is positive and
+/// the same on both meshes, and its cost is no more than at the problem's own guess of b.
+/// Without such a term (issue #12's β-stage file made free, with η = 0) there is no relaxed
+/// minimum over b, and the error says why.
 #[test]
-fn a_free_terminal_time_is_not_relaxed() {
+fn a_free_terminal_time_is_relaxed_when_the_cost_has_a_rate_term() {
     let problem = hard("issue12_delta_stage_free.toml");
+    assert!(suslov::lie::relaxed::has_rate_term(&problem));
+    let r = relaxed_minimum(&problem).unwrap();
+    assert!(r.fine.span > 0.0);
+    assert!(
+        rel(r.fine.span, r.coarse.span) < 1e-3,
+        "{} {}",
+        r.fine.span,
+        r.coarse.span
+    );
+    eprintln!(
+        "delta-stage file: relaxed b - a = {}, J = {}",
+        r.fine.span, r.fine.cost
+    );
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/corpus/hard/issue12_beta_stage_fixed.toml"),
+    )
+    .unwrap()
+    .replace(
+        "terminal_time = { fixed = 1.905 }",
+        "terminal_time = { free = true, guess = 1.905 }",
+    )
+    .replace("eta = 3.712024161842769", "eta = 0.0\ndelta = 0.5");
+    let path = dir().join("beta_stage_free_no_rate.toml");
+    std::fs::write(&path, text).unwrap();
+    let problem = load(&path);
+    assert!(!suslov::lie::relaxed::has_rate_term(&problem));
     assert!(matches!(
         relaxed_minimum(&problem),
-        Err(RelaxedError::FreeTime)
+        Err(RelaxedError::FreeTimeWithoutRate)
     ));
 }

@@ -12,6 +12,11 @@
 //! than every extremal found; the relaxed problem computes the least of them, which is what
 //! a stop should name as the infimum.
 //!
+//! For a free terminal time `b` is an unknown of the relaxed problem too. It has a minimum
+//! over `b` when the cost has a term in `Ω̇` (the paper's `η > 0`: that term grows like
+//! `1/(b − a)` as the span shrinks, the time weight and `α/4` like `b − a`); without one, the
+//! relaxed cost falls with the span and [`relaxed_minimum`] says so instead.
+//!
 //! # The formulation
 //!
 //! In the limit the force `λξ` stays finite (`λ ~ 1/ε`): it becomes a torque `τ` with
@@ -186,9 +191,11 @@ pub struct RelaxedLevel {
     pub times: Vec<f64>,
     /// `Ω` at the collocation points, one row each.
     pub omegas: Vec<Vec<f64>>,
+    /// `b − a` (the problem's, or the minimum's for a free terminal time).
+    pub span: f64,
 }
 
-/// The relaxed minimum of a fixed-time problem (module docs).
+/// The relaxed minimum of a problem (module docs).
 #[derive(Debug, Clone)]
 pub struct RelaxedMinimum {
     /// On [`RELAXED_INTERVALS`] intervals.
@@ -211,29 +218,83 @@ pub enum RelaxedError {
     /// The constraint value does not vanish: `ξ → 0` is not admissible.
     #[error("the constraint value is not zero: xi -> 0 is not admissible")]
     ConstraintValue,
-    /// Only fixed terminal times are relaxed.
-    #[error("the relaxed problem is solved for a fixed terminal time only")]
-    FreeTime,
+    /// A free terminal time and no term of the cost in `Ω̇`: the relaxed cost of a motion
+    /// falls with its span, so its minimum over `b` is at `b → a` (the span scan of the
+    /// projected segment, [`super::collapse::best_span`], shows how it falls).
+    #[error(
+        "a free terminal time without a cost term in Omega': the relaxed cost falls with b - a, \
+         no relaxed minimum over b"
+    )]
+    FreeTimeWithoutRate,
+    /// The free terminal time's minimum ran to a span that is not positive.
+    #[error("the relaxed minimum's span b - a = {span:e} is not positive")]
+    Span {
+        /// `b − a`.
+        span: f64,
+    },
     /// The start, the transcription or the SQP.
     #[error("{0}")]
     Direct(#[from] DirectError),
 }
 
-/// The relaxed minimum of `problem` (fixed `b`, vanishing constraint value; module docs).
+/// Whether the relaxed running cost of `problem` depends on `τ`, i.e. on `Ω̇` (the paper's
+/// `η > 0`): its Hessian's `τ` block at `[Ω_a, 0]` is not zero. The cost is a polynomial of
+/// degree 2 in `Ω̇` in every model, so one point decides.
+pub fn has_rate_term<M: Model>(problem: &Problem<M>) -> bool {
+    let (n, nz) = (M::DIM, RelaxedOcp::<M>::NZ);
+    let mut z = vec![0.0; nz];
+    z[..n].copy_from_slice(&problem.omega_a);
+    let mut jet = vec![0.0; 4 * n];
+    problem.desired.jet_into(problem.t0, &mut jet);
+    let mut h_zz = vec![0.0; nz * nz];
+    let mut h_zd = vec![0.0; nz * n];
+    let mut h_dd = vec![0.0; n * n];
+    M::relaxed_hessian(
+        &z,
+        problem.params(),
+        &jet[..n],
+        1.0,
+        &vec![0.0; n],
+        &[0.0],
+        &mut h_zz,
+        &mut h_zd,
+        &mut h_dd,
+    );
+    (n..nz).any(|i| (n..nz).any(|j| h_zz[i * nz + j] != 0.0))
+}
+
+/// The relaxed minimum of `problem` (vanishing constraint value; module docs). For a free
+/// terminal time `b` is an unknown too, started from the problem's guess; that needs a cost
+/// term in `Ω̇` ([`has_rate_term`]), without which the relaxed cost falls as `b → a`.
 pub fn relaxed_minimum<M: Model>(problem: &Problem<M>) -> Result<RelaxedMinimum, RelaxedError> {
+    relaxed_minimum_from(problem, problem.terminal.initial() - problem.t0)
+}
+
+/// [`relaxed_minimum`], for a free terminal time started from the span `b − a = span` (for a
+/// fixed one `span` is ignored). The relaxed cost need not be convex in the span: on the
+/// paper's η = 1 problem, started from its guess b_p − a = 12, the SQP stops at a local
+/// minimum at b − a = 10.93 (J = 17.757), above the projected segment's control at
+/// b − a = 1.42 (J = 9.4245).
+pub fn relaxed_minimum_from<M: Model>(
+    problem: &Problem<M>,
+    span: f64,
+) -> Result<RelaxedMinimum, RelaxedError> {
     if !problem.conserves_energy() {
         return Err(RelaxedError::ConstraintValue);
     }
-    let TerminalTime::Fixed(b) = problem.terminal else {
-        return Err(RelaxedError::FreeTime);
+    if matches!(problem.terminal, TerminalTime::Free { .. }) && !has_rate_term(problem) {
+        return Err(RelaxedError::FreeTimeWithoutRate);
+    }
+    let span = match problem.terminal {
+        TerminalTime::Fixed(b) => b - problem.t0,
+        TerminalTime::Free { .. } => span,
     };
-    let span = b - problem.t0;
     let start = projected_segment(
         &problem.level_set(),
         &problem.omega_a,
         &problem.omega_b,
         problem.t0,
-        b,
+        problem.t0 + span,
         ENERGY_REL_TOL,
     )
     .map_err(|e| DirectError::Start(e.to_string()))?;
@@ -243,7 +304,7 @@ pub fn relaxed_minimum<M: Model>(problem: &Problem<M>) -> Result<RelaxedMinimum,
         .map_err(|e| DirectError::Start(e.to_string()))?;
     let warm = Projected::new(Arc::new(spline), problem.level_set())
         .map_err(|e| DirectError::Start(e.to_string()))?;
-    let fine = level(problem, 2 * RELAXED_INTERVALS, span, &warm)?;
+    let fine = level(problem, 2 * RELAXED_INTERVALS, coarse.span, &warm)?;
     Ok(RelaxedMinimum { coarse, fine })
 }
 
@@ -253,15 +314,16 @@ fn level<M: Model>(
     intervals: usize,
     span: f64,
     start: &dyn Path,
-) -> Result<RelaxedLevel, DirectError> {
+) -> Result<RelaxedLevel, RelaxedError> {
     let n = M::DIM;
     let ocp_problem = RelaxedOcp::<M>::for_problem(problem);
     let mesh: Vec<f64> = (0..=intervals)
         .map(|k| k as f64 / intervals as f64)
         .collect();
     let (boundary, horizon) = super::certify::ends_and_horizon(problem, vec![]);
-    let tr = Transcription::new(&ocp_problem, boundary, horizon, mesh)?;
-    let tr = tangential_end(problem, tr)?;
+    let tr =
+        Transcription::new(&ocp_problem, boundary, horizon, mesh).map_err(DirectError::from)?;
+    let tr = tangential_end(problem, tr).map_err(DirectError::from)?;
     let v0 = tr.primal_from_fn(span, |t, z| {
         with_buffer(4 * n, |jet| {
             start.jet_into(t, jet);
@@ -274,8 +336,11 @@ fn level<M: Model>(
         max_iterations: RELAXED_MAX_ITERATIONS,
         ..SqpOptions::default()
     };
-    let (point, report) = ocp::sqp(&tr, v0, &options)?;
+    let (point, report) = ocp::sqp(&tr, v0, &options).map_err(DirectError::from)?;
     let t_len = tr.length(&point.v);
+    if t_len.is_nan() || t_len <= 0.0 {
+        return Err(RelaxedError::Span { span: t_len });
+    }
     let nz = tr.nz();
     let (times, omegas) = point
         .v
@@ -290,6 +355,7 @@ fn level<M: Model>(
         report,
         times,
         omegas,
+        span: t_len,
     })
 }
 

@@ -2044,8 +2044,8 @@ fn direct_route<M: Model>(
 
 /// What the direct start's minimum `d` (which the BVP could not take up) says about `problem`,
 /// for a stop without a partial solution. The controls with a vanishing `ξ` evaluated are the
-/// one along the minimum's own motion ([`super::collapse::along_samples`]) and, for a fixed
-/// `b`, the one along the relaxed minimum's ([`super::collapse::along_relaxed`]), both
+/// one along the minimum's own motion ([`super::collapse::along_samples`]) and the one along
+/// the relaxed minimum's ([`super::collapse::along_relaxed`]), both
 /// re-integrated. When the cheaper costs no more than the minimum itself, the minimizing
 /// controls collapse (the infimum is approached as `ξ → 0`); otherwise the minimum is a
 /// regular one the BVP does not converge from.
@@ -2059,13 +2059,7 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
         &omegas,
         Motion::DirectMinimum,
     );
-    let (relaxed, along_relaxed) = match problem.terminal {
-        TerminalTime::Fixed(_) => {
-            let (outcome, control) = collapse::along_relaxed(problem);
-            (Some(outcome), control)
-        }
-        TerminalTime::Free { .. } => (None, None),
-    };
+    let (relaxed, along_relaxed) = collapse::along_relaxed(problem);
     let head = format!(
         "the direct method's minimum of the transcribed problem costs {:.6} with min |xi| {:.2e}",
         d.cost, d.min_xi
@@ -2097,9 +2091,9 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
             Ok(_) => head,
         },
     };
-    if let Some(RelaxedOutcome::Computed {
+    if let RelaxedOutcome::Computed {
         intervals, costs, ..
-    }) = relaxed
+    } = relaxed
     {
         finding.push_str(&format!(
             "; the relaxed problem (the limit xi -> 0) has its minimum at J = {:.8} on {} \

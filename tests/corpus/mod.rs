@@ -834,7 +834,7 @@ pub struct CollapseFlags {
     /// The motion of the cheapest control (`projected_segment`, `desired_path`, `solution`,
     /// `direct_minimum`, `relaxed_minimum`).
     pub least_motion: Option<&'static str>,
-    /// The relaxed minimum's status (`computed`, `failed`), for a fixed terminal time.
+    /// The relaxed minimum's status (`computed`, `failed`, `falls with the span`).
     pub relaxed: Option<&'static str>,
 }
 
@@ -854,6 +854,7 @@ pub fn collapse_flags(out: &Path) -> Option<CollapseFlags> {
     let relaxed = match c["relaxed"]["status"].as_str() {
         Some("computed") => Some("computed"),
         Some("failed") => Some("failed"),
+        Some("falls_with_span") => Some("falls with the span"),
         _ => None,
     };
     Some(CollapseFlags {
