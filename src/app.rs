@@ -248,6 +248,7 @@ fn case_files(sub: &Path) -> Vec<std::path::PathBuf> {
         [Outputs::Final, Outputs::Unverified, Outputs::Partial]
             .map(|k| format!("{}.csv", collocation_stem(k))),
     );
+    names.push(lie::INFIMUM_FILE.to_string());
     names.extend(report::Figure::ALL.iter().flat_map(|f| {
         FigureFormat::ALL.map(|format| format!("{}.{}", f.stem(), format.extension()))
     }));
@@ -459,6 +460,23 @@ pub fn run_case(
                 "stage '{stage}' stopped{at}: {reason}"
             )));
             write_case_outputs(out, sub, &partial, name, (Outputs::Partial, output), events)?;
+            match lie::infimum_csv(&partial.generic, output.points) {
+                Some(Ok(text)) => {
+                    let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
+                    events(AppEvent::Wrote(&path));
+                    s.extra.insert(
+                        "infimum_trajectory".into(),
+                        serde_json::json!(lie::INFIMUM_FILE),
+                    );
+                }
+                Some(Err(e)) => {
+                    s.extra.insert(
+                        "infimum_trajectory_error".into(),
+                        serde_json::json!(e.to_string()),
+                    );
+                }
+                None => {}
+            }
             s
         }
         Err(e) => CaseSummary {

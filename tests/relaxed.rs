@@ -176,3 +176,101 @@ fn a_free_terminal_time_is_relaxed_when_the_cost_has_a_rate_term() {
         Err(RelaxedError::FreeTimeWithoutRate)
     ));
 }
+
+/// Issue #12's β-stage file stops: its infimum is the relaxed minimum, approached as ξ → 0.
+/// `suslov solve` writes the ε-optimal control (`trajectory.infimum.csv`), and this test checks
+/// that file with nothing of the solver: the constraint, |ξ| = 1e-6, the end points, the
+/// energy, Suslov's equations (𝕀Ω̇ − 𝕀Ω × Ω parallel to ξ, Ω̇ by finite differences), and the
+/// cost by the trapezoid rule against IPOPT's infimum.
+#[test]
+fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/corpus/hard/issue12_beta_stage_fixed.toml");
+    let out = dir().join("beta_stage_out");
+    let _ = std::fs::remove_dir_all(&out);
+    let summary = suslov::app::run_solve(&file, &out, &mut |_| {}).expect("a run");
+    let case = &summary.cases[0];
+    assert_eq!(
+        case.extra["infimum_trajectory"], "trajectory.infimum.csv",
+        "{:?}",
+        case.extra
+    );
+    let text = std::fs::read_to_string(out.join("trajectory.infimum.csv")).unwrap();
+    let mut lines = text.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    assert_eq!(header.len(), 1 + 3 * 3 + 3, "{header:?}");
+    let rows: Vec<Vec<f64>> = lines
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    assert!(rows.len() > 100);
+    // The file's data: inertia, ends, weights (alpha, beta, gamma, eta).
+    let inertia = [2.443, 4.5802, 2.1762];
+    let omega_a = [4.601779491630014, 1.251506848645617, 3.043485496267531];
+    let omega_b = [-0.9516352318833746, 3.9605421879672127, 1.5170637454790434];
+    let (alpha, beta, gamma, eta) = (
+        0.17340025170767212,
+        3.7455828113267695,
+        2.0476149906564105,
+        3.712024161842769,
+    );
+    let v3 = |r: &[f64], k: usize| [r[k], r[k + 1], r[k + 2]];
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let norm = |a: [f64; 3]| dot(a, a).sqrt();
+    let energy = |w: [f64; 3]| (0..3).map(|i| inertia[i] * w[i] * w[i]).sum::<f64>();
+    let (first, last) = (&rows[0], &rows[rows.len() - 1]);
+    assert!(first[0] == 0.0 && (last[0] - 1.905).abs() < 1e-12);
+    for (k, target) in [(first, omega_a), (last, omega_b)] {
+        let w = v3(k, 1);
+        assert!(norm([w[0] - target[0], w[1] - target[1], w[2] - target[2]]) < 1e-9 * norm(target));
+    }
+    let e0 = energy(omega_a);
+    let mut cost = 0.0;
+    let mut previous: Option<(f64, f64)> = None;
+    let mut worst_force = 0.0_f64;
+    for i in 0..rows.len() {
+        let r = &rows[i];
+        let (w, xi, xid, wd) = (v3(r, 1), v3(r, 4), v3(r, 7), v3(r, 10));
+        assert!((norm(xi) - 1e-6).abs() < 1e-12, "|xi| = {}", norm(xi));
+        assert!(
+            dot(w, xi).abs() < 1e-9 * norm(w) * norm(xi),
+            "<Omega, xi> at row {i}"
+        );
+        assert!((energy(w) - e0).abs() < 1e-8 * e0, "energy at row {i}");
+        // Omega' by central differences (one-sided at the ends) on the written grid.
+        let (lo, hi) = (i.saturating_sub(1), (i + 1).min(rows.len() - 1));
+        let h = rows[hi][0] - rows[lo][0];
+        let wdot: Vec<f64> = (0..3)
+            .map(|k| (rows[hi][1 + k] - rows[lo][1 + k]) / h)
+            .collect();
+        let c = alpha / 4.0 * (dot(xi, xi) - 1.0).powi(2)
+            + beta / 2.0 * dot(xid, xid)
+            + gamma / 2.0 * (0..3).map(|k| (w[k] - wd[k]).powi(2)).sum::<f64>()
+            + eta / 2.0 * wdot.iter().map(|v| v * v).sum::<f64>();
+        if let Some((t0, c0)) = previous {
+            cost += 0.5 * (r[0] - t0) * (c0 + c);
+        }
+        previous = Some((r[0], c));
+        // Suslov: I Omega' - (I Omega) x Omega is the constraint force lambda xi.
+        if i > 0 && i + 1 < rows.len() {
+            let m = [inertia[0] * w[0], inertia[1] * w[1], inertia[2] * w[2]];
+            let cross = [
+                m[1] * w[2] - m[2] * w[1],
+                m[2] * w[0] - m[0] * w[2],
+                m[0] * w[1] - m[1] * w[0],
+            ];
+            let force: [f64; 3] = std::array::from_fn(|k| inertia[k] * wdot[k] - cross[k]);
+            let along = dot(force, xi) / dot(xi, xi);
+            let off: [f64; 3] = std::array::from_fn(|k| force[k] - along * xi[k]);
+            worst_force = worst_force.max(norm(off) / (1.0 + norm(force)));
+        }
+    }
+    eprintln!(
+        "trapezoid cost {cost}, worst off-xi force {worst_force:e}, {} rows",
+        rows.len()
+    );
+    assert!(
+        worst_force < 1e-3,
+        "the force is not along xi: {worst_force:e}"
+    );
+    assert!(rel(cost, 44.27118405) < 1e-5, "trapezoid cost {cost}");
+}

@@ -11,8 +11,10 @@
 //! DIR/summary.json          one case, last
 //! ```
 //!
-//! A stage that stops writes `trajectory.partial.csv`; a solution that fails its checks
-//! writes `trajectory.unverified.csv` (no motion), as for so(3).
+//! A stage that stops writes `trajectory.partial.csv`, and, when its evidence shows the
+//! problem's infimum approached as `ξ → 0`, the ε-optimal control `trajectory.infimum.csv`
+//! ([`INFIMUM_FILE`]); a solution that fails its checks writes `trajectory.unverified.csv` (no
+//! motion), as for so(3).
 
 use std::path::Path;
 use std::time::Instant;
@@ -45,6 +47,7 @@ fn files() -> Vec<std::path::PathBuf> {
         "collocation.csv",
         "collocation.unverified.csv",
         "collocation.partial.csv",
+        INFIMUM_FILE,
         "motion.csv",
         "path.png",
     ]
@@ -84,6 +87,50 @@ fn trajectory_columns<M: Model>(
         }
     }
     (names, columns)
+}
+
+/// The file of a stop's ε-optimal control: the relaxed minimum's motion driven by a vanishing
+/// `ξ` ([`lie::collapse::samples_control`]), written when that control is the cheapest of the
+/// stop's evidence and undercuts it (the problem's infimum is approached as `ξ → 0`).
+pub(super) const INFIMUM_FILE: &str = "trajectory.infimum.csv";
+
+/// The table of [`INFIMUM_FILE`] for the stop `partial` (`t`, `Ω`, `ξ`, `ξ̇` in the model's
+/// state names, `Ω_d`, on the output grid and the relaxed mesh's times), or `None` when its
+/// evidence does not call for one.
+pub(super) fn infimum_csv<M: Model>(
+    partial: &LieSolution<M>,
+    points: usize,
+) -> Option<Result<String, lie::collapse::CollapseError>> {
+    use lie::collapse::{Motion, RelaxedOutcome};
+    let found = partial.collapse.as_ref()?;
+    if !(found.undercuts && found.least.motion == Motion::RelaxedMinimum) {
+        return None;
+    }
+    let Some(RelaxedOutcome::Computed { times, omegas, .. }) = &found.relaxed else {
+        return None;
+    };
+    let problem = &partial.problem;
+    let n = M::DIM;
+    let at = super::output_times(problem.t0, found.least.span, points, times);
+    let rows = match lie::collapse::samples_control(problem, times, omegas, &at) {
+        Ok(rows) => rows,
+        Err(e) => return Some(Err(e)),
+    };
+    let mut names = vec!["t".to_string()];
+    names.extend(M::STATE_NAMES[..M::XIDOT.end].iter().map(|s| s.to_string()));
+    names.extend((1..=n).map(|i| format!("omega_d{i}")));
+    let mut columns = vec![Vec::with_capacity(at.len()); names.len()];
+    let mut jet = vec![0.0; 4 * n];
+    for (t, row) in at.iter().zip(&rows) {
+        problem.desired.jet_into(*t, &mut jet);
+        for (col, v) in columns
+            .iter_mut()
+            .zip(std::iter::once(t).chain(row).chain(&jet[..n]))
+        {
+            col.push(*v);
+        }
+    }
+    Some(Ok(trajectory_csv(&names, &columns)))
 }
 
 /// `trajectory.csv` from [`trajectory_columns`].
@@ -562,6 +609,20 @@ pub fn run_model_solve<M: Model>(
                 "collocation.partial.csv",
                 collocation_csv(&partial).as_bytes(),
             )?;
+            match infimum_csv(&partial, output.points) {
+                Some(Ok(text)) => {
+                    write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
+                    c.extra
+                        .insert("infimum_trajectory".into(), serde_json::json!(INFIMUM_FILE));
+                }
+                Some(Err(e)) => {
+                    c.extra.insert(
+                        "infimum_trajectory_error".into(),
+                        serde_json::json!(e.to_string()),
+                    );
+                }
+                None => {}
+            }
             c
         }
         Err(e) => CaseSummary {

@@ -324,24 +324,7 @@ fn path_control<M: Model>(
     if !crate::model::constraint_value_vanishes::<M>(params) {
         return Err(CollapseError::ConstraintValue);
     }
-    let n = M::DIM;
-    let control = |t: f64, eps: f64, z: &mut [f64]| -> Result<(), CollapseError> {
-        with_buffer(6 * n, |buf| {
-            let (jet, xi) = buf.split_at_mut(4 * n);
-            path.jet_into(t, jet);
-            // The path's jet [Ω, Ω̇, Ω̈, Ω⃛]; the singular control takes its first three blocks
-            // and gives [ξ_p, ξ̇_p], the z-blocks XI and XIDOT.
-            M::singular_control(&jet[..3 * n], params, xi);
-            if !xi.iter().all(|v| v.is_finite()) {
-                return Err(CollapseError::SingularDirection { t });
-            }
-            z[M::OMEGA].copy_from_slice(&jet[..n]);
-            for (zk, v) in z[M::XI.start..M::XIDOT.end].iter_mut().zip(xi.iter()) {
-                *zk = eps * v;
-            }
-            Ok(())
-        })
-    };
+    let control = |t: f64, eps: f64, z: &mut [f64]| control_at::<M>(path, params, t, eps, z);
     evaluate::<M>(
         params,
         &*problem.desired,
@@ -350,6 +333,53 @@ fn path_control<M: Model>(
         check,
         &control,
     )
+}
+
+/// `[Ω, ξ, ξ̇]` of the control `ξ = ε ξ̃/|ξ̃|` along `path` at `t`, into the first
+/// `M::XIDOT.end` entries of `z` (the state layout).
+fn control_at<M: Model>(
+    path: &dyn Path,
+    params: &[f64],
+    t: f64,
+    eps: f64,
+    z: &mut [f64],
+) -> Result<(), CollapseError> {
+    let n = M::DIM;
+    with_buffer(6 * n, |buf| {
+        let (jet, xi) = buf.split_at_mut(4 * n);
+        path.jet_into(t, jet);
+        // The path's jet [Ω, Ω̇, Ω̈, Ω⃛]; the singular control takes its first three blocks
+        // and gives [ξ_p, ξ̇_p], the z-blocks XI and XIDOT.
+        M::singular_control(&jet[..3 * n], params, xi);
+        if !xi.iter().all(|v| v.is_finite()) {
+            return Err(CollapseError::SingularDirection { t });
+        }
+        z[M::OMEGA].copy_from_slice(&jet[..n]);
+        for (zk, v) in z[M::XI.start..M::XIDOT.end].iter_mut().zip(xi.iter()) {
+            *zk = eps * v;
+        }
+        Ok(())
+    })
+}
+
+/// The control of [`along_samples`] (the motion through `Ω(times[k]) = omegas[k]`, projected
+/// onto the level set, driven by `ξ = ε ξ̃/|ξ̃|`, [`COLLAPSE_EPS`]) at the times `at`: one row
+/// `[Ω, ξ, ξ̇]` (the state layout's first `M::XIDOT.end` entries) per time.
+pub fn samples_control<M: Model>(
+    problem: &Problem<M>,
+    times: &[f64],
+    omegas: &[Vec<f64>],
+    at: &[f64],
+) -> Result<Vec<Vec<f64>>, CollapseError> {
+    let spline = Sampled::new(times, omegas)?;
+    let path = Projected::new(Arc::new(spline), problem.level_set())?;
+    at.iter()
+        .map(|&t| {
+            let mut z = vec![0.0; M::XIDOT.end];
+            control_at::<M>(&path, problem.params(), t, COLLAPSE_EPS, &mut z)?;
+            Ok(z)
+        })
+        .collect()
 }
 
 /// [`along_path`] on the motion through `Ω(times[k]) = omegas[k]` (rows of `n`), e.g. the
@@ -383,6 +413,13 @@ pub enum RelaxedOutcome {
         spans: [f64; 2],
         /// The SQP's iterations on each.
         iterations: [usize; 2],
+        /// The finer minimum's collocation times (the motion of its control; not written to
+        /// the summary).
+        #[serde(skip)]
+        times: Vec<f64>,
+        /// Its `Ω` at those times, one row each.
+        #[serde(skip)]
+        omegas: Vec<Vec<f64>>,
     },
     /// A free terminal time without a cost term in `Ω̇`: the relaxed cost falls with the
     /// span, there is no relaxed minimum over `b` ([`super::relaxed::RelaxedError::FreeTimeWithoutRate`]).
@@ -455,6 +492,8 @@ fn relaxed_once<M: Model>(
                 costs: [coarse.cost, fine.cost],
                 spans: [coarse.span, fine.span],
                 iterations: [coarse.report.iterations, fine.report.iterations],
+                times: fine.times.clone(),
+                omegas: fine.omegas.clone(),
             },
             Some(control),
         ),
