@@ -94,6 +94,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         check: None,
         route: None,
         collapse: None,
+        infimum: None,
     };
     let Some(status) = status else {
         return unexplained(format!("timeout after {} s", timeout.as_secs()), wall);
@@ -118,6 +119,7 @@ fn run_problem(p: &CorpusProblem, work: &Path, timeout: Duration) -> Outcome {
         check,
         route: corpus::last_route(&out),
         collapse: corpus::collapse_flags(&out),
+        infimum: corpus::infimum_check(&p.toml, &dir, &out),
     }
 }
 
@@ -424,6 +426,34 @@ fn main() {
     let _ = writeln!(r, "| problems | finding | count |\n|---|---|---|");
     for ((kind, found), c) in &collapse {
         let _ = writeln!(r, "| {kind} | {found} | {c} |");
+    }
+    let _ = writeln!(r);
+    // The stops' ε-optimal controls (trajectory.infimum.csv), checked independently.
+    let written: Vec<(&CorpusProblem, &corpus::TrajectoryCheck)> = problems
+        .iter()
+        .zip(&results)
+        .filter_map(|(p, o)| o.infimum.as_ref().map(|c| (p, c)))
+        .collect();
+    let fixed = written.iter().filter(|(p, _)| p.fixed_time).count();
+    let passed = written.iter().filter(|(_, c)| c.passed()).count();
+    let worst = |f: fn(&corpus::TrajectoryCheck) -> f64| {
+        written.iter().map(|(_, c)| f(c)).fold(0.0_f64, f64::max)
+    };
+    let _ = writeln!(
+        r,
+        "Stops whose infimum is approached as xi -> 0 and that wrote its eps-optimal control \
+         (`trajectory.infimum.csv`, the relaxed minimum's motion with |xi| = 1e-6): {} ({} with \
+         a fixed b); {passed} pass the independent check of the written file (largest \
+         |<Omega, xi>|/(|Omega||xi|) {:.1e}, energy drift {:.1e}, Suslov residual / scale \
+         {:.1e}).",
+        written.len(),
+        fixed,
+        worst(|c| c.max_constraint),
+        worst(|c| c.max_energy_drift),
+        worst(|c| c.max_equation),
+    );
+    for (p, c) in written.iter().filter(|(_, c)| !c.passed()) {
+        let _ = writeln!(r, "- {}: {}", p.id, c.failures.join("; "));
     }
     let _ = writeln!(r);
     let _ = writeln!(r, "Explained stops by stage (or check):\n");

@@ -25,7 +25,9 @@
 //! the previous run's files are removed first, `INCOMPLETE` marks it until `summary.json`,
 //! the last file, is complete. A case that fails writes what it has, marked: its summary
 //! status says `partial: <stage, parameter value, reason>` and its trajectory goes to
-//! `trajectory.partial.csv` (and `.npy`); a solution that fails its a-posteriori checks
+//! `trajectory.partial.csv` (and `.npy`), and, when its evidence shows the problem's infimum
+//! approached as `ξ → 0`, the ε-optimal control to `trajectory.infimum.csv`
+//! ([`lie::INFIMUM_FILE`]); a solution that fails its a-posteriori checks
 //! ([`crate::lie::verify`]) has status `unverified: <checks>` and goes to
 //! `trajectory.unverified.csv` (and `.npy`). Figures are drawn for verified solutions only.
 

@@ -273,4 +273,9 @@ fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
         "the force is not along xi: {worst_force:e}"
     );
     assert!(rel(cost, 44.27118405) < 1e-5, "trapezoid cost {cost}");
+    // The corpus's independent check of written trajectories accepts it too.
+    let toml = std::fs::read_to_string(&file).unwrap();
+    let check = corpus::infimum_check(&toml, file.parent().unwrap(), &out).expect("written");
+    assert!(check.passed(), "{:?}", check.failures);
+    assert!(check.equation_rows > 100, "{check:?}");
 }

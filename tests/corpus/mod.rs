@@ -824,6 +824,30 @@ pub struct Outcome {
     /// vanishing xi undercuts the extremal or the stop, and whether it shows that no optimal
     /// terminal time exists; `None` without that record.
     pub collapse: Option<CollapseFlags>,
+    /// The independent check of a stop's ε-optimal control `trajectory.infimum.csv`
+    /// ([`infimum_check`]), when it wrote one.
+    pub infimum: Option<TrajectoryCheck>,
+}
+
+/// The independent check ([`check_trajectory`]) of `out/trajectory.infimum.csv` (the ε-optimal
+/// control a stop writes when the problem's infimum is approached as ξ → 0), if written.
+pub fn infimum_check(
+    problem_toml: &str,
+    problem_dir: &Path,
+    out: &Path,
+) -> Option<TrajectoryCheck> {
+    if !out.join("trajectory.infimum.csv").exists() {
+        return None;
+    }
+    Some(
+        match independent(problem_toml, problem_dir, out, "trajectory.infimum.csv") {
+            Ok((check, _)) => check,
+            Err(e) => TrajectoryCheck {
+                failures: vec![e],
+                ..TrajectoryCheck::default()
+            },
+        },
+    )
 }
 
 /// The verdicts of `summary.json`'s `extra.collapse`, and the cheapest control's motion.
@@ -1058,5 +1082,6 @@ pub fn solve_and_classify(p: &CorpusProblem, work: &Path) -> Outcome {
         check,
         route: last_route(&out),
         collapse: collapse_flags(&out),
+        infimum: infimum_check(&p.toml, &dir, &out),
     }
 }
