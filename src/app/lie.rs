@@ -92,7 +92,7 @@ fn trajectory_columns<M: Model>(
 /// The file of a stop's ε-optimal control: the relaxed minimum's motion driven by a vanishing
 /// `ξ` ([`lie::collapse::samples_control`]), written when that control is the cheapest of the
 /// stop's evidence and undercuts it (the problem's infimum is approached as `ξ → 0`).
-pub(super) const INFIMUM_FILE: &str = "trajectory.infimum.csv";
+pub const INFIMUM_FILE: &str = "trajectory.infimum.csv";
 
 /// The table of [`INFIMUM_FILE`] for the stop `partial` (`t`, `Ω`, `ξ`, `ξ̇` in the model's
 /// state names, `Ω_d`, on the output grid and the relaxed mesh's times), or `None` when its
