@@ -463,13 +463,11 @@ pub fn run_case(
             )));
             write_case_outputs(out, sub, &partial, name, (Outputs::Partial, output), events)?;
             match lie::infimum_csv(&partial.generic, output.points) {
-                Some(Ok(text)) => {
+                Some(Ok((text, control))) => {
                     let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
                     events(AppEvent::Wrote(&path));
-                    s.extra.insert(
-                        "infimum_trajectory".into(),
-                        serde_json::json!(lie::INFIMUM_FILE),
-                    );
+                    s.extra
+                        .insert("infimum_trajectory".into(), lie::infimum_record(&control));
                 }
                 Some(Err(e)) => {
                     s.extra.insert(

@@ -191,7 +191,7 @@ fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
     let summary = suslov::app::run_solve(&file, &out, &mut |_| {}).expect("a run");
     let case = &summary.cases[0];
     assert_eq!(
-        case.extra["infimum_trajectory"], "trajectory.infimum.csv",
+        case.extra["infimum_trajectory"]["file"], "trajectory.infimum.csv",
         "{:?}",
         case.extra
     );
@@ -278,4 +278,31 @@ fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
     let check = corpus::infimum_check(&toml, file.parent().unwrap(), &out).expect("written");
     assert!(check.passed(), "{:?}", check.failures);
     assert!(check.equation_rows > 100, "{check:?}");
+    let record = &case.extra["infimum_trajectory"];
+    assert!(
+        rel(record["cost"].as_f64().unwrap(), 44.27118405) < 1e-8,
+        "{record}"
+    );
+    assert_eq!(record["eps"].as_f64(), Some(1e-6));
+}
+
+/// Corpus problem issue12-142: the projected segment is itself the relaxed minimum (the SQP
+/// takes no step), and its control ties with the relaxed minimum's (measured equal to 1e-13):
+/// the ε-optimal control is written all the same, and passes the independent check.
+#[test]
+fn a_tie_with_the_relaxed_minimum_still_writes_the_eps_optimal_control() {
+    let all = corpus::generate(corpus::DEFAULT_N, corpus::SEED);
+    let p = all.iter().find(|p| p.id == "issue12-142").unwrap();
+    let work = dir().join("issue12-142");
+    let _ = std::fs::remove_dir_all(&work);
+    let file = corpus::write_problem(p, &work).unwrap();
+    let out = work.join("out");
+    let summary = suslov::app::run_solve(&file, &out, &mut |_| {}).expect("a run");
+    let record = &summary.cases[0].extra["infimum_trajectory"];
+    assert!(
+        rel(record["cost"].as_f64().unwrap(), 0.3563462474) < 1e-8,
+        "{record}"
+    );
+    let check = corpus::infimum_check(&p.toml, &work, &out).expect("written");
+    assert!(check.passed(), "{:?}", check.failures);
 }

@@ -90,20 +90,33 @@ fn trajectory_columns<M: Model>(
 }
 
 /// The file of a stop's ε-optimal control: the relaxed minimum's motion driven by a vanishing
-/// `ξ` ([`lie::collapse::samples_control`]), written when that control is the cheapest of the
-/// stop's evidence and undercuts it (the problem's infimum is approached as `ξ → 0`).
+/// `ξ` ([`lie::collapse::samples_control`]), written when the stop's evidence is undercut and
+/// that control is the cheapest of it, or within [`INFIMUM_RTOL`] of the cheapest (the
+/// problem's infimum is approached as `ξ → 0`).
 pub const INFIMUM_FILE: &str = "trajectory.infimum.csv";
 
+/// How far (relative) the relaxed minimum's control may cost above the cheapest control of a
+/// stop's evidence and still be written as its ε-optimal control: where the projected segment
+/// is itself the relaxed minimum (corpus problems issue12-142, short-196: equal to 1e-13), or
+/// without a term in `Ω̇`, where the projected desired path comes 3.7e-7 closer to the
+/// pointwise infimum than the discrete relaxed minimum (spiral-129).
+pub const INFIMUM_RTOL: f64 = 1e-6;
+
 /// The table of [`INFIMUM_FILE`] for the stop `partial` (`t`, `Ω`, `ξ`, `ξ̇` in the model's
-/// state names, `Ω_d`, on the output grid and the relaxed mesh's times), or `None` when its
-/// evidence does not call for one.
+/// state names, `Ω_d`, on the output grid and the relaxed mesh's times) and the control it
+/// holds, or `None` when the stop's evidence does not call for one.
+#[allow(clippy::type_complexity)]
 pub(super) fn infimum_csv<M: Model>(
     partial: &LieSolution<M>,
     points: usize,
-) -> Option<Result<String, lie::collapse::CollapseError>> {
+) -> Option<Result<(String, lie::collapse::CollapsedControl), lie::collapse::CollapseError>> {
     use lie::collapse::{Motion, RelaxedOutcome};
     let found = partial.collapse.as_ref()?;
-    if !(found.undercuts && found.least.motion == Motion::RelaxedMinimum) {
+    let relaxed = found
+        .controls
+        .iter()
+        .find(|c| c.motion == Motion::RelaxedMinimum)?;
+    if !(found.undercuts && relaxed.cost <= found.least.cost * (1.0 + INFIMUM_RTOL)) {
         return None;
     }
     let Some(RelaxedOutcome::Computed { times, omegas, .. }) = &found.relaxed else {
@@ -111,7 +124,7 @@ pub(super) fn infimum_csv<M: Model>(
     };
     let problem = &partial.problem;
     let n = M::DIM;
-    let at = super::output_times(problem.t0, found.least.span, points, times);
+    let at = super::output_times(problem.t0, relaxed.span, points, times);
     let rows = match lie::collapse::samples_control(problem, times, omegas, &at) {
         Ok(rows) => rows,
         Err(e) => return Some(Err(e)),
@@ -130,7 +143,18 @@ pub(super) fn infimum_csv<M: Model>(
             col.push(*v);
         }
     }
-    Some(Ok(trajectory_csv(&names, &columns)))
+    Some(Ok((trajectory_csv(&names, &columns), *relaxed)))
+}
+
+/// What `summary.json` records of a written [`INFIMUM_FILE`].
+pub(super) fn infimum_record(control: &lie::collapse::CollapsedControl) -> serde_json::Value {
+    serde_json::json!({
+        "file": INFIMUM_FILE,
+        "cost": control.cost,
+        "eps": control.eps,
+        "span": control.span,
+        "reintegration_error": control.reintegration_error,
+    })
 }
 
 /// `trajectory.csv` from [`trajectory_columns`].
@@ -610,10 +634,10 @@ pub fn run_model_solve<M: Model>(
                 collocation_csv(&partial).as_bytes(),
             )?;
             match infimum_csv(&partial, output.points) {
-                Some(Ok(text)) => {
+                Some(Ok((text, control))) => {
                     write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
                     c.extra
-                        .insert("infimum_trajectory".into(), serde_json::json!(INFIMUM_FILE));
+                        .insert("infimum_trajectory".into(), infimum_record(&control));
                 }
                 Some(Err(e)) => {
                     c.extra.insert(
