@@ -479,11 +479,21 @@ fn relaxed_once<M: Model>(
         }
     };
     let (coarse, fine) = (&relaxed.coarse, &relaxed.fine);
+    // The motion joins the exact end points: the SQP meets them only to its tolerance, and
+    // without a term in Ω̇ its end layers are steep (corpus problem spiral-129: the spline's
+    // Ω(b) missed Ω_b by 7.4e-6 relative before the ends were pinned).
+    let mut omegas = fine.omegas.clone();
+    if let Some(first) = omegas.first_mut() {
+        first.copy_from_slice(&problem.omega_a);
+    }
+    if let Some(last) = omegas.last_mut() {
+        last.copy_from_slice(&problem.omega_b);
+    }
     match along_samples(
         problem,
         problem.params(),
         &fine.times,
-        &fine.omegas,
+        &omegas,
         Motion::RelaxedMinimum,
     ) {
         Ok(control) => (
@@ -493,7 +503,7 @@ fn relaxed_once<M: Model>(
                 spans: [coarse.span, fine.span],
                 iterations: [coarse.report.iterations, fine.report.iterations],
                 times: fine.times.clone(),
-                omegas: fine.omegas.clone(),
+                omegas,
             },
             Some(control),
         ),
