@@ -362,6 +362,17 @@ fn control_at<M: Model>(
     })
 }
 
+/// The motion through `Ω(times[k]) = omegas[k]`: the natural cubic spline through the
+/// samples, projected onto the level set.
+fn samples_path<M: Model>(
+    problem: &Problem<M>,
+    times: &[f64],
+    omegas: &[Vec<f64>],
+) -> Result<Projected, CollapseError> {
+    let spline = Sampled::new(times, omegas)?;
+    Ok(Projected::new(Arc::new(spline), problem.level_set())?)
+}
+
 /// The control of [`along_samples`] (the motion through `Ω(times[k]) = omegas[k]`, projected
 /// onto the level set, driven by `ξ = ε ξ̃/|ξ̃|`, [`COLLAPSE_EPS`]) at the times `at`: one row
 /// `[Ω, ξ, ξ̇]` (the state layout's first `M::XIDOT.end` entries) per time.
@@ -371,8 +382,7 @@ pub fn samples_control<M: Model>(
     omegas: &[Vec<f64>],
     at: &[f64],
 ) -> Result<Vec<Vec<f64>>, CollapseError> {
-    let spline = Sampled::new(times, omegas)?;
-    let path = Projected::new(Arc::new(spline), problem.level_set())?;
+    let path = samples_path(problem, times, omegas)?;
     at.iter()
         .map(|&t| {
             let mut z = vec![0.0; M::XIDOT.end];
@@ -392,8 +402,7 @@ pub fn along_samples<M: Model>(
     omegas: &[Vec<f64>],
     motion: Motion,
 ) -> Result<CollapsedControl, CollapseError> {
-    let spline = Sampled::new(times, omegas)?;
-    let path = Projected::new(Arc::new(spline), problem.level_set())?;
+    let path = samples_path(problem, times, omegas)?;
     let span = times.last().copied().unwrap_or(problem.t0) - problem.t0;
     along_path(problem, params, &path, span, motion)
 }

@@ -204,14 +204,6 @@ pub struct RelaxedMinimum {
     pub fine: RelaxedLevel,
 }
 
-impl RelaxedMinimum {
-    /// `|J_fine − J_coarse|`, an estimate of the coarse discretization error (the finer is
-    /// better by the method's order).
-    pub fn discretization_gap(&self) -> f64 {
-        (self.fine.cost - self.coarse.cost).abs()
-    }
-}
-
 /// Why no relaxed minimum was computed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RelaxedError {
