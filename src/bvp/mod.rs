@@ -538,6 +538,7 @@ fn with_total_work<P: BvpProblem + ?Sized>(
         factorizations: stats.factorizations,
         mesh_passes: stats.mesh_passes,
         mesh_history: stats.mesh_history.clone(),
+        rounding_limited: stats.rounding_limited,
         f_evaluations: ev.f_evals.get(),
         bc_evaluations: ev.bc_evals.get(),
         ..sol.stats

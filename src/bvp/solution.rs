@@ -142,6 +142,9 @@ pub struct Stats {
     /// The reduction of that factorisation: structured LU, or structured QR when elimination
     /// grew too much or met a tiny pivot.
     pub factorization: Factorization,
+    /// Newton solves (over all meshes) that stopped rounding-limited: a fresh correction
+    /// below the tolerance that no longer contracts (`bvp::newton` module docs).
+    pub rounding_limited: usize,
 }
 
 /// One report to the progress hook.
