@@ -195,3 +195,71 @@ fn issue12_080_is_solved_by_the_direct_start_in_the_multiplier_form() {
     assert!(((cost - 0.002548219) / 0.002548219).abs() < 1e-6, "{cost}");
     assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
 }
+
+/// fast-198 (γ = 0, |Ω_a| ≈ 9.4 over b − a = 16.2) from its problem file alone, default
+/// settings: every analytic start fails; the direct start's SQP finds a regular minimum on 100
+/// intervals (multiplier form; the reduced form's line search stops), from which the BVP does
+/// not converge. Refined to 200 intervals, with κ recovered from the SQP's multipliers, it
+/// does; the polish to 1e-8 then ends rounding-limited (the Newton matrix's condition
+/// estimate is about 3e12). Verified, at the cost the direct minima approach as the mesh is
+/// refined (169.599053, 169.599046, 169.599044 on 100, 200, 400 intervals), with |ξ| ≥ 0.89.
+#[test]
+fn fast_198_is_solved_from_the_refined_direct_minimum() {
+    use suslov::lie::solve::DIRECT_START_ROUTE;
+    let loaded = suslov::config::load(&hard("fast_198_rounding_limited.toml")).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let last = sol.routes.last().unwrap();
+    assert_eq!(
+        (last.route, last.stopped.as_deref()),
+        (DIRECT_START_ROUTE, None)
+    );
+    let verified = lie::verify_solution(&sol);
+    assert!(
+        verified.verification.passed(),
+        "{:?}",
+        verified.verification
+    );
+    let cost = verified.diagnostics.cost;
+    assert!((cost - 169.59903114).abs() < 1e-6, "{cost}");
+    assert!(cost < 169.599044, "below the finest direct minimum: {cost}");
+    assert!(min_xi(&sol.bvp) > 0.89, "{}", min_xi(&sol.bvp));
+    assert!(
+        sol.bvp.stats.condition_estimate > 1e11,
+        "{:e}",
+        sol.bvp.stats.condition_estimate
+    );
+}
+
+/// The direct start's `κ` is recovered from the SQP's multipliers (the reduced form's
+/// least-squares multipliers at the minimum, whichever form found it, read as classical
+/// costates): on a fixed-time example solved by the homotopy, both forms' warm starts carry
+/// the BVP solution's `κ` to within the SQP's tolerance and the mesh's error (4.6e-4 of its
+/// largest entry measured); the multiplier form's own multipliers would not (its state
+/// constraint shifts the costates: 0.6 of the scale off).
+#[test]
+fn the_direct_starts_kappa_is_the_bvps() {
+    use suslov::lie::direct::{direct_start_in, DirectForm, DirectGuess};
+    let file = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/spiral_fixed_time.toml");
+    let loaded = suslov::config::load(&file).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    for form in [DirectForm::Multiplier, DirectForm::Reduced] {
+        let start = direct_start_in(&problem, 100, DirectGuess::Segment, form).unwrap();
+        assert!(start.kappa_fitted, "{form:?}");
+        let (mut worst, mut scale) = (0.0_f64, 0.0_f64);
+        for (t, y) in start
+            .warm
+            .times
+            .iter()
+            .zip(start.warm.states.chunks_exact(so3::N_STATE))
+        {
+            let exact = sol.state(*t);
+            for i in so3::KAPPA {
+                worst = worst.max((exact[i] - y[i]).abs());
+                scale = scale.max(exact[i].abs());
+            }
+        }
+        assert!(worst < 2e-3 * scale, "{form:?}: {worst:e} of {scale:e}");
+    }
+}

@@ -34,9 +34,19 @@
 //!    in the multiplier form `λ` is fitted to the motion's `Ω̇`
 //!    ([`MultiplierOcp::fit_lambda`]).
 //! 2. [`crate::ocp::sqp()`] at the problem's own weights, to [`DIRECT_TOLERANCE`].
-//! 3. The result, `[Ω, ξ, ξ̇]` at every collocation point with the costate `κ = 0` (the
-//!    direct method has none; the BVP solve recovers it), is a [`WarmStart`] for
-//!    [`super::solve::solve_from`]'s single BVP solve.
+//! 3. The result, `[Ω, ξ, ξ̇, κ]` at every collocation point, is a [`WarmStart`] for
+//!    [`super::solve::solve_from`]'s single BVP solve. `κ` comes from the SQP's multipliers:
+//!    the reduced form's least-squares multipliers at the minimum (whichever form found it)
+//!    are the classical costates `π = λ_p/ω_p` ([`crate::ocp::Transcription`]), and `κ` is
+//!    fitted to them through the generated `classical_costates`, which is affine in `κ`
+//!    (`reduced_costates`, `fit_kappa`). The multiplier form's own multipliers would not do:
+//!    its path constraint `⟨Ω, ξ⟩ = γ` shifts the costates by `ν(t) [ξ; Ω]`. Where the
+//!    reduced form is singular (`ξ` nearly vanishes) `κ = 0`, as before this step
+//!    ([`DirectStart::kappa_fitted`]). On corpus problem fast-198 the BVP converges from the
+//!    minimum with `κ` recovered and not with `κ = 0`.
+//! 4. [`refine_start`]: the same minimum on a finer mesh, from the coarse one's points
+//!    interpolated (a few SQP iterations), for a BVP that does not converge from the coarse
+//!    one ([`super::solve`]'s direct route).
 //!
 //! A start whose SQP stops (the infimum is not attained and `ξ` collapses, the line search
 //! fails) is reported with the method's reason, not hidden; so is a minimum whose `ξ`
@@ -78,6 +88,11 @@ pub struct DirectStart {
     pub min_xi: f64,
     /// `b − a` of the direct minimum.
     pub span: f64,
+    /// The SQP's primal point (every point's `z`, then `T` when it is free).
+    pub primal: Vec<f64>,
+    /// Whether `κ` in [`DirectStart::warm`] was recovered from the multipliers (else it is 0:
+    /// the reduced form is singular at the minimum, `ξ` nearly vanishes).
+    pub kappa_fitted: bool,
 }
 
 impl DirectStart {
@@ -200,7 +215,7 @@ pub fn direct_start_in<M: Model>(
             let tr = transcription_on(&ocp_problem, problem, mesh)?;
             minimize::<M, _>(
                 &tr,
-                problem.params(),
+                problem,
                 &*start,
                 guess,
                 span,
@@ -213,15 +228,52 @@ pub fn direct_start_in<M: Model>(
             let tr = multiplier::transcription_on(&ocp_problem, problem, mesh)?;
             let tr = tangential_end(problem, tr)?;
             let limit = DIRECT_MULTIPLIER_MAX_ITERATIONS;
-            minimize::<M, _>(
-                &tr,
-                problem.params(),
-                &*start,
-                guess,
-                span,
-                limit,
-                |z, omega_dot| ocp_problem.fit_lambda(z, omega_dot),
-            )
+            minimize::<M, _>(&tr, problem, &*start, guess, span, limit, |z, omega_dot| {
+                ocp_problem.fit_lambda(z, omega_dot)
+            })
+        }
+    }
+}
+
+/// The direct start on `intervals` uniform intervals from an earlier one (`previous`, in the
+/// same `form`), its points interpolated linearly in time.
+pub fn refine_start<M: Model>(
+    problem: &Problem<M>,
+    previous: &DirectStart,
+    intervals: usize,
+    form: DirectForm,
+) -> Result<DirectStart, DirectError> {
+    let mesh: Vec<f64> = (0..=intervals)
+        .map(|k| k as f64 / intervals as f64)
+        .collect();
+    let times = &previous.warm.times;
+    let interpolate = |nz: usize, t: f64, z: &mut [f64]| {
+        let k = times.partition_point(|&s| s <= t).clamp(1, times.len() - 1);
+        let (t0, t1) = (times[k - 1], times[k]);
+        let w = ((t - t0) / (t1 - t0)).clamp(0.0, 1.0);
+        let (a, b) = (
+            &previous.primal[(k - 1) * nz..k * nz],
+            &previous.primal[k * nz..(k + 1) * nz],
+        );
+        for i in 0..nz {
+            z[i] = (1.0 - w) * a[i] + w * b[i];
+        }
+    };
+    match form {
+        DirectForm::Reduced => {
+            let ocp_problem = LieOcp::<M>::for_problem(problem);
+            let tr = transcription_on(&ocp_problem, problem, mesh)?;
+            let nz = tr.nz();
+            let v0 = tr.primal_from_fn(previous.span, |t, z| interpolate(nz, t, z));
+            minimize_from(&tr, problem, v0, DIRECT_MAX_ITERATIONS)
+        }
+        DirectForm::Multiplier => {
+            let ocp_problem = MultiplierOcp::<M>::for_problem(problem);
+            let tr = multiplier::transcription_on(&ocp_problem, problem, mesh)?;
+            let tr = tangential_end(problem, tr)?;
+            let nz = tr.nz();
+            let v0 = tr.primal_from_fn(previous.span, |t, z| interpolate(nz, t, z));
+            minimize_from(&tr, problem, v0, DIRECT_MULTIPLIER_MAX_ITERATIONS)
         }
     }
 }
@@ -284,7 +336,7 @@ pub(super) fn tangential_end<'a, M: Model, P: OcpProblem>(
 /// `start` driven by its unit singular control; `complete(z, Ω̇)` fills the rest of a point.
 fn minimize<M: Model, P: OcpProblem>(
     tr: &Transcription<'_, P>,
-    params: &[f64],
+    problem: &Problem<M>,
     start: &dyn Path,
     guess: DirectGuess,
     span: f64,
@@ -292,7 +344,7 @@ fn minimize<M: Model, P: OcpProblem>(
     mut complete: impl FnMut(&mut [f64], &[f64]),
 ) -> Result<DirectStart, DirectError> {
     let n = M::DIM;
-    let nz = tr.nz();
+    let params = problem.params();
     let mut bad_time = None;
     // ξ̃ may pass through 0 along the motion, where ξ̃/|ξ̃| flips; the motion only sees ξ up
     // to sign (λ is odd in ξ, λξ even), so the sign is chosen to keep ξ continuous (the points
@@ -325,6 +377,18 @@ fn minimize<M: Model, P: OcpProblem>(
             guess.describe()
         )));
     }
+    minimize_from(tr, problem, v0, max_iterations)
+}
+
+/// The SQP of the direct start on `tr` from the primal point `v0`.
+fn minimize_from<M: Model, P: OcpProblem>(
+    tr: &Transcription<'_, P>,
+    problem: &Problem<M>,
+    v0: Vec<f64>,
+    max_iterations: usize,
+) -> Result<DirectStart, DirectError> {
+    let nz = tr.nz();
+    let params = problem.params();
     let options = SqpOptions {
         tolerance: DIRECT_TOLERANCE,
         max_iterations,
@@ -335,20 +399,122 @@ fn minimize<M: Model, P: OcpProblem>(
     let mut times = Vec::with_capacity(tr.n_points());
     let mut states = Vec::with_capacity(tr.n_points() * M::N_STATE);
     let mut min_xi = f64::INFINITY;
+    // κ from the multipliers (module docs, item 3); κ = 0 where they are not available.
+    let costates = reduced_costates(problem, tr.mesh().to_vec(), &point.v, nz);
+    let bvp = super::problem::LieBvp::new(problem);
+    let mut kappa_fitted = costates.is_ok();
     for (p, z) in point.v.chunks_exact(nz).take(tr.n_points()).enumerate() {
-        times.push(tr.point_time(p, t_len));
+        let t = tr.point_time(p, t_len);
+        times.push(t);
         let start = states.len();
         states.extend_from_slice(&z[..M::KAPPA.start]); // [Ω, ξ, ξ̇]
-        states.resize(start + M::N_STATE, 0.0); // κ = 0
+        states.resize(start + M::N_STATE, 0.0); // κ = 0 unless fitted
+        if let Ok(pi) = &costates {
+            let nx = pi.len() / tr.n_points();
+            kappa_fitted &= fit_kappa::<M>(
+                &bvp,
+                params,
+                t,
+                &mut states[start..],
+                &pi[p * nx..(p + 1) * nx],
+            );
+        }
         min_xi = min_xi.min(z[M::XI].iter().map(|v| v * v).sum::<f64>().sqrt());
+    }
+    if !kappa_fitted {
+        for y in states.chunks_exact_mut(M::N_STATE) {
+            y[M::KAPPA].iter_mut().for_each(|v| *v = 0.0);
+        }
     }
     Ok(DirectStart {
         warm: WarmStart { times, states },
+        primal: point.v.clone(),
         cost: tr.objective(&point.v),
         report,
         min_xi,
         span: t_len,
+        kappa_fitted,
     })
+}
+
+/// The classical costates `π = λ_p / ω_p` (`P × 2n`) at the points of the primal point `v`
+/// (points of `nz` entries beginning with `[Ω, ξ, ξ̇]`, then `T` when free): the least-squares
+/// multipliers of the *reduced* form on the same mesh at `v`, whatever form found `v`.
+///
+/// Why the reduced form: the multiplier form imposes `⟨Ω, ξ⟩ = γ` at every point, a state
+/// constraint whose multiplier shifts its costates by `ν(t) [ξ; Ω]`; the reduced form's
+/// costates are those of the BVP's `κ` (`classical_costates`). Its end conditions are
+/// `Ω(b) = Ω_b` in full, as in the BVP: with only the tangential ones its multipliers are
+/// not unique, and the least-squares choice is another member of the family than the BVP's.
+fn reduced_costates<M: Model>(
+    problem: &Problem<M>,
+    mesh: Vec<f64>,
+    v: &[f64],
+    nz: usize,
+) -> Result<Vec<f64>, String> {
+    let ocp_problem = LieOcp::<M>::for_problem(problem);
+    let tr = transcription_on(&ocp_problem, problem, mesh).map_err(|e| e.to_string())?;
+    let rz = tr.nz();
+    let mut w = Vec::with_capacity(tr.n_var());
+    for z in v.chunks_exact(nz).take(tr.n_points()) {
+        w.extend_from_slice(&z[..rz]);
+    }
+    if tr.length_index().is_some() {
+        w.push(v[v.len() - 1]);
+    }
+    if w.len() != tr.n_var() {
+        return Err(format!("{} values for {} unknowns", w.len(), tr.n_var()));
+    }
+    let kkt = ocp::kkt::KktMatrix::new(&tr, &w).map_err(|e| e.to_string())?;
+    let y = ocp::kkt::least_squares_multipliers(&tr, &kkt, &w).map_err(|e| e.to_string())?;
+    let weights = tr.quadrature_weights();
+    let mut pi = tr.point_multipliers(&y);
+    let nx = tr.n_state();
+    for (p, row) in pi.chunks_exact_mut(nx).enumerate() {
+        row.iter_mut().for_each(|l| *l /= weights[p]);
+    }
+    if pi.iter().all(|x| x.is_finite()) {
+        Ok(pi)
+    } else {
+        Err("the multipliers are not finite".into())
+    }
+}
+
+/// `κ` in `y` (whose `[Ω, ξ, ξ̇]` are set) fitted by least squares to the classical costates
+/// `pi` at time `t`: the generated `classical_costates` (`π = −[p_Ω; p_ξ]` of `C + ⟨κ, q⟩`) is
+/// affine in `κ`, so its map is read off at `κ = 0` and the unit vectors. Returns whether the
+/// fit is finite (else `κ` is left at 0).
+fn fit_kappa<M: Model>(
+    bvp: &super::problem::LieBvp<'_, M>,
+    params: &[f64],
+    t: f64,
+    y: &mut [f64],
+    pi: &[f64],
+) -> bool {
+    let (nk, nx) = (M::KAPPA.len(), pi.len());
+    let mut w = vec![0.0; M::N_DESIRED];
+    bvp.desired_at(t, &mut w);
+    y[M::KAPPA].iter_mut().for_each(|v| *v = 0.0);
+    let mut base = vec![0.0; nx];
+    M::classical_costates(y, params, &w, &mut base);
+    let mut a = nalgebra::DMatrix::zeros(nx, nk);
+    let mut col = vec![0.0; nx];
+    for j in 0..nk {
+        y[M::KAPPA.start + j] = 1.0;
+        M::classical_costates(y, params, &w, &mut col);
+        y[M::KAPPA.start + j] = 0.0;
+        for r in 0..nx {
+            a[(r, j)] = col[r] - base[r];
+        }
+    }
+    let rhs = nalgebra::DVector::from_iterator(nx, (0..nx).map(|r| pi[r] - base[r]));
+    match a.svd(true, true).solve(&rhs, 1e-14) {
+        Ok(k) if k.iter().all(|v| v.is_finite()) => {
+            y[M::KAPPA].copy_from_slice(k.as_slice());
+            true
+        }
+        _ => false,
+    }
 }
 
 #[cfg(test)]

@@ -540,7 +540,10 @@ pub enum LieSolveError<M: Model> {
     #[error("cannot build the analytic start: {0}")]
     Start(String),
     /// A stage did not reach its target; `partial` holds the last converged point.
-    #[error("stage '{stage}' stopped at {parameter} = {reached} (target {target}): {reason}")]
+    #[error(
+        "stage '{stage}' stopped{}: {reason}",
+        where_stopped(parameter, *reached, *target)
+    )]
     StageFailed {
         /// Stage name.
         stage: &'static str,
@@ -564,6 +567,17 @@ pub enum LieSolveError<M: Model> {
     /// Invalid input reached the BVP solver (a bug in this layer).
     #[error("BVP solver rejected its input: {0}")]
     Bvp(#[from] bvp::BvpError),
+}
+
+/// Where a stage stopped, for its message: " at β = 0.2985 (target 3.75)", or nothing for a
+/// stage that continues no parameter (the polish, the refine).
+#[doc(hidden)]
+pub fn where_stopped(parameter: &str, reached: f64, target: f64) -> String {
+    if parameter == "-" || !reached.is_finite() {
+        String::new()
+    } else {
+        format!(" at {parameter} = {reached} (target {target})")
+    }
 }
 
 impl<M: Model> std::fmt::Debug for LieSolveError<M> {
@@ -1710,13 +1724,20 @@ fn solve_cold<M: Model>(
                 sol.routes = routes;
                 return Ok(sol);
             }
-            Err((why, found)) => {
+            Err(failure) => {
                 routes.push(RouteReport {
                     route: DIRECT_START_ROUTE,
-                    stopped: Some(why),
+                    stopped: Some(failure.why),
                     seconds: clock.elapsed().as_secs_f64(),
                 });
-                direct_minimum = found;
+                direct_minimum = failure.minimum;
+                // A BVP solve from the direct minimum that reached the target weights is
+                // further than an analytic start's stop: its partial solution is the result.
+                if let Some(stop) = failure.stop {
+                    if progress(&stop) > progress(&first) {
+                        (first, best_route) = (*stop, DIRECT_START_ROUTE);
+                    }
+                }
             }
         }
     }
@@ -1969,7 +1990,44 @@ const DIRECT_MAX_INTERVALS: usize = 100;
 
 /// Why the direct route (or one attempt) stopped, with the cheapest minimum the SQP found
 /// that the BVP could not take up.
-type DirectFailure = (String, Option<Box<DirectStart>>);
+/// Why the direct-start route stopped.
+struct DirectFailure<M: Model> {
+    /// Every attempt's reason.
+    why: String,
+    /// The cheapest minimum the SQP found that the BVP could not take up (evidence for
+    /// [`super::collapse::for_stop`]).
+    minimum: Option<Box<DirectStart>>,
+    /// The stop of a BVP solve from a minimum that reached the target weights (its polish
+    /// stopped): a partial solution further than any analytic start's.
+    stop: Option<Box<LieSolveError<M>>>,
+}
+
+impl<M: Model> DirectFailure<M> {
+    fn new(why: String) -> Self {
+        Self {
+            why,
+            minimum: None,
+            stop: None,
+        }
+    }
+
+    /// Keep the cheaper minimum and the first stop of `other`, and append its reason.
+    fn absorb(&mut self, other: DirectFailure<M>, label: &str) {
+        if self.why.is_empty() {
+            self.why = other.why;
+        } else {
+            self.why = format!("{}; {label}{}", self.why, other.why);
+        }
+        if let Some(found) = other.minimum {
+            if self.minimum.as_ref().is_none_or(|c| found.cost < c.cost) {
+                self.minimum = Some(found);
+            }
+        }
+        if self.stop.is_none() {
+            self.stop = other.stop;
+        }
+    }
+}
 
 /// A direct start that stops is tried once more on a mesh this many times finer.
 const DIRECT_RETRY_FACTOR: usize = 2;
@@ -1978,50 +2036,36 @@ const DIRECT_RETRY_FACTOR: usize = 2;
 /// [`solve_from`]'s) and the a-posteriori checks; if that stops, all of it once more on a
 /// [`DIRECT_RETRY_FACTOR`] times finer mesh; then, whether or not that solved, on the first
 /// mesh in the multiplier form ([`super::multiplier`], `φ = 0` at every point), which passes
-/// where `ξ` nears 0. Of two verified solutions the cheaper is kept. The error gives every
-/// attempt's reason, and the cheapest minimum the SQP found that the BVP could not take up
-/// (evidence for [`super::collapse::for_stop`]).
+/// where `ξ` nears 0. Of two verified solutions the cheaper is kept. The failure gives every
+/// attempt's reason, the cheapest minimum the SQP found that the BVP could not take up, and
+/// the furthest BVP stop from one.
 fn direct_route<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     events: &mut dyn FnMut(&Event),
-) -> Result<LieSolution<M>, DirectFailure> {
+) -> Result<LieSolution<M>, DirectFailure<M>> {
     let intervals = options.initial_intervals.clamp(1, DIRECT_MAX_INTERVALS);
     // When the first attempt stops, once more on a twice finer mesh: corpus problem fast-119
     // (|Omega_a| = 35 over b - a = 7.3) has, on 100 intervals, only a collapsed minimum
     // (min |xi| 0.001, cost 117.69), and on 200 the regular minimum IPOPT finds (114.838).
-    let mut cheapest: Option<Box<DirectStart>> = None;
-    let mut keep = |found: Option<Box<DirectStart>>| {
-        if let Some(found) = found {
-            if cheapest.as_ref().is_none_or(|c| found.cost < c.cost) {
-                cheapest = Some(found);
-            }
-        }
-    };
+    let mut failure = DirectFailure::new(String::new());
     let reduced = DirectForm::Reduced;
-    let mut solved = None;
-    let mut why = match direct_attempt(problem, options, intervals, reduced, events) {
-        Ok(found) => {
-            solved = Some(found);
-            String::new()
-        }
-        Err((why, found)) => {
-            keep(found);
-            why
+    let mut solved = match direct_attempt(problem, options, intervals, reduced, events) {
+        Ok(found) => Some(found),
+        Err(f) => {
+            failure.absorb(f, "");
+            None
         }
     };
     if solved.is_none() && !options.stopped() {
         let finer = DIRECT_RETRY_FACTOR * intervals;
         match direct_attempt(problem, options, finer, reduced, events) {
             Ok(found) => solved = Some(found),
-            Err((second, found)) => {
-                keep(found);
-                why = format!("{why}; on {finer} intervals: {second}");
-            }
+            Err(f) => failure.absorb(f, &format!("on {finer} intervals: ")),
         }
     }
     if options.stopped() {
-        return solved.map(|(sol, _)| sol).ok_or((why, cheapest));
+        return solved.map(|(sol, _)| sol).ok_or(failure);
     }
     // The multiplier form also when the reduced form solved: the two SQPs can land on
     // different minima, and the cheaper verified one is kept (corpus problem spiral-149:
@@ -2035,9 +2079,9 @@ fn direct_route<M: Model>(
     ) {
         (Some((a, cost_a)), Ok((b, cost_b))) => Ok(if cost_b < cost_a { b } else { a }),
         (Some((a, _)), Err(_)) | (None, Ok((a, _))) => Ok(a),
-        (None, Err((third, found))) => {
-            keep(found);
-            Err((format!("{why}; in the multiplier form: {third}"), cheapest))
+        (None, Err(f)) => {
+            failure.absorb(f, "in the multiplier form: ");
+            Err(failure)
         }
     }
 }
@@ -2105,33 +2149,68 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
 }
 
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the
-/// verified solution and its cost.
+/// verified solution and its cost. When the BVP does not converge from the SQP's minimum, the
+/// same minimum refined to a [`DIRECT_RETRY_FACTOR`] times finer mesh (a few SQP iterations
+/// from it, its points interpolated) is tried: corpus problem fast-198's BVP converges from
+/// its minimum on 200 intervals, not on 100.
 fn direct_attempt<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
     intervals: usize,
     form: DirectForm,
     events: &mut dyn FnMut(&Event),
-) -> Result<(LieSolution<M>, f64), DirectFailure> {
-    let start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
-        .map_err(|e| (e.to_string(), None))?;
-    let sol = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
-        Ok(sol) => sol,
-        Err(e) => {
-            let why = format!(
-                "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| \
-                 {:.2e}), but the BVP from it stopped: {e}",
-                start.cost, start.min_xi
-            );
-            return Err((why, Some(Box::new(start))));
+) -> Result<(LieSolution<M>, f64), DirectFailure<M>> {
+    let mut start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
+        .map_err(|e| DirectFailure::new(e.to_string()))?;
+    let mut stop = None;
+    let mut solved = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
+        Ok(sol) => Ok(sol),
+        Err(e) => Err(format!(
+            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.2e}), \
+             but the BVP from it stopped: {e}",
+            start.cost, start.min_xi
+        )),
+    };
+    if let Err(why) = &mut solved {
+        let finer = DIRECT_RETRY_FACTOR * intervals;
+        if !options.stopped() {
+            match super::direct::refine_start(problem, &start, finer, form) {
+                Ok(refined) => {
+                    match warm_solve(problem, options, &refined.warm, WarmOrigin::Direct, events) {
+                        Ok(sol) => solved = Ok(sol),
+                        Err(e) => {
+                            why.push_str(&format!(
+                                "; refined to {finer} intervals (cost {:.6e}), the BVP from it \
+                                 stopped: {e}",
+                                refined.cost
+                            ));
+                            if matches!(e, LieSolveError::StageFailed { .. }) {
+                                stop = Some(Box::new(e));
+                            }
+                        }
+                    }
+                    start = refined;
+                }
+                Err(e) => why.push_str(&format!("; refining it to {finer} intervals: {e}")),
+            }
         }
+    }
+    let failed = |why: String, start: DirectStart, stop| DirectFailure {
+        why,
+        minimum: Some(Box::new(start)),
+        stop,
+    };
+    let sol = match solved {
+        Ok(sol) => sol,
+        Err(why) => return Err(failed(why, start, stop)),
     };
     let checked = super::verify::verify_solution(&sol);
     match checked.verification.verdict() {
         super::checks::Verdict::Verified => Ok((sol, checked.diagnostics.cost)),
-        super::checks::Verdict::Unverified { reason } => Err((
+        super::checks::Verdict::Unverified { reason } => Err(failed(
             format!("the BVP from the SQP's minimum failed the checks: {reason}"),
-            Some(Box::new(start)),
+            start,
+            None,
         )),
     }
 }

@@ -71,7 +71,10 @@ pub enum SolveError {
     #[error("cannot build the analytic start: {0}")]
     Start(String),
     /// A stage did not reach its target; `partial` holds the last converged point.
-    #[error("stage '{stage}' stopped at {parameter} = {reached} (target {target}): {reason}")]
+    #[error(
+        "stage '{stage}' stopped{}: {reason}",
+        crate::lie::solve::where_stopped(parameter, *reached, *target)
+    )]
     StageFailed {
         /// Stage name.
         stage: &'static str,
