@@ -46,7 +46,7 @@
 //!    minimum with `κ` recovered and not with `κ = 0`.
 //! 4. [`refine_start`]: the same minimum on a finer mesh, from the coarse one's points
 //!    interpolated (a few SQP iterations), for a BVP that does not converge from the coarse
-//!    one ([`super::solve`]'s direct route).
+//!    one ([`super::solve`](mod@super::solve)'s direct route).
 //!
 //! A start whose SQP stops (the infimum is not attained and `ξ` collapses, the line search
 //! fails) is reported with the method's reason, not hidden; so is a minimum whose `ξ`
