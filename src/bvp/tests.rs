@@ -14,6 +14,7 @@ use super::mesh::{adapt_mesh, halve_mesh, transfer_solution};
 use super::newton::compute_correction;
 use super::options::JacobianSource;
 use super::problem::{estimate_bc_jac, estimate_fun_jac, BvpProblem, Evaluator};
+use super::{solve, Guess, Options, Status};
 
 #[test]
 fn tableau_matches_closed_form() {
@@ -577,4 +578,70 @@ fn transfer_reproduces_the_collocation_polynomial() {
     for (i, &xi) in new_x.iter().enumerate() {
         assert!((v[i] - exact(xi)).abs() < 1e-14);
     }
+}
+
+/// `y'' = −y`, `y(0) = 0`, `y(1) = sin 1` (solution `sin x`) with a deterministic "rounding
+/// noise" of relative size `eps` in `f` on `x ∈ [0.5, 0.52]` only: a hash of the bits of
+/// `(x, y)`, so that every new iterate sees new noise and the corrections stop contracting at
+/// the noise's level, as on a Newton matrix whose condition number amplifies rounding.
+struct NoisyOscillator {
+    eps: f64,
+}
+impl BvpProblem for NoisyOscillator {
+    fn n(&self) -> usize {
+        2
+    }
+    fn f(&self, x: f64, y: &[f64], _p: &[f64], dy: &mut [f64]) {
+        let noise = if (0.5..=0.52).contains(&x) {
+            let mut h =
+                x.to_bits() ^ y[0].to_bits().rotate_left(21) ^ y[1].to_bits().rotate_left(42);
+            h ^= h >> 33;
+            h = h.wrapping_mul(0xff51_afd7_ed55_8ccd);
+            h ^= h >> 33;
+            self.eps * ((h >> 11) as f64 / (1u64 << 53) as f64 - 0.5)
+        } else {
+            0.0
+        };
+        dy[0] = y[1];
+        dy[1] = -y[0] * (1.0 + noise);
+    }
+    fn jac(&self, _x: f64, _y: &[f64], _p: &[f64], dfdy: &mut [f64], _dfdp: &mut [f64]) -> bool {
+        dfdy.copy_from_slice(&[0.0, 1.0, -1.0, 0.0]);
+        true
+    }
+    fn bc(&self, ya: &[f64], yb: &[f64], _p: &[f64], r: &mut [f64]) {
+        r[0] = ya[0];
+        r[1] = yb[0] - 1f64.sin();
+    }
+}
+
+/// Newton's rounding-limited stop (`newton` module docs) at both sides of its threshold, at
+/// `tol = 1e-10`. Noise of 3e-9 in `f`: the corrections stall above `newton_tol` and below the
+/// tolerance, and the solve converges through that stop, to the solution within the tolerance
+/// (with the stop switched off it did not converge: measured when this test was written).
+/// Noise ten times larger: the corrections exceed the tolerance, the stop does not apply, and
+/// the solve fails, as it must.
+#[test]
+fn newton_stops_rounding_limited_only_below_the_tolerance() {
+    let x: Vec<f64> = (0..=20).map(|i| i as f64 / 20.0).collect();
+    let guess = Guess::from_fn(&x, 2, vec![], |x, y| {
+        y[0] = x.sin() + 0.01 * x * (1.0 - x);
+        y[1] = x.cos();
+    });
+    let options = Options {
+        tol: 1e-10,
+        max_nodes: 2000,
+        ..Default::default()
+    };
+    let quiet = solve(&NoisyOscillator { eps: 3e-9 }, &guess, &options).expect("valid input");
+    assert_eq!(quiet.status, Status::Converged, "{:?}", quiet.stats);
+    assert!(quiet.stats.rounding_limited >= 1, "{:?}", quiet.stats);
+    let worst = quiet
+        .x
+        .iter()
+        .zip(quiet.y.chunks_exact(2))
+        .fold(0.0_f64, |m, (x, y)| m.max((y[0] - x.sin()).abs()));
+    assert!(worst < 1e-9, "error {worst:e}");
+    let loud = solve(&NoisyOscillator { eps: 3e-8 }, &guess, &options).expect("valid input");
+    assert_ne!(loud.status, Status::Converged, "{:?}", loud.stats);
 }
