@@ -58,6 +58,28 @@ fn min_xi(sol: &suslov::bvp::Solution) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// `file` (a hard file) solved with default settings, by the direct start as its last route,
+/// and verified: the solution and its verified cost.
+fn solved_by_the_direct_start(file: &str) -> (lie::LieSolution<so3::So3>, f64) {
+    use suslov::lie::solve::DIRECT_START_ROUTE;
+    let loaded = suslov::config::load(&hard(file)).unwrap();
+    let problem = loaded.problem.to_generic().unwrap();
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
+    let last = sol.routes.last().unwrap();
+    assert_eq!(
+        (last.route, last.stopped.as_deref()),
+        (DIRECT_START_ROUTE, None)
+    );
+    let verified = lie::verify_solution(&sol);
+    assert!(
+        verified.verification.passed(),
+        "{file}: {:?}",
+        verified.verification
+    );
+    let cost = verified.diagnostics.cost;
+    (sol, cost)
+}
+
 /// The warm start alone solves it (no homotopy), verified, at IPOPT's cost (given to 7 and 10
 /// digits: relative 7e-8 and 8e-10 measured).
 fn assert_reaches(problem_file: &str, csv: &str, ipopt_cost: f64) {
@@ -149,22 +171,7 @@ fn fast_199s_direct_start_reaches_a_regular_minimum_after_restorations() {
 /// cost, |ξ| near 1.
 #[test]
 fn fast_119_is_solved_by_the_direct_start_on_the_finer_mesh() {
-    use suslov::lie::solve::DIRECT_START_ROUTE;
-    let loaded = suslov::config::load(&hard("fast_119_missed_regular.toml")).unwrap();
-    let problem = loaded.problem.to_generic().unwrap();
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
-    let last = sol.routes.last().unwrap();
-    assert_eq!(
-        (last.route, last.stopped.as_deref()),
-        (DIRECT_START_ROUTE, None)
-    );
-    let verified = lie::verify_solution(&sol);
-    assert!(
-        verified.verification.passed(),
-        "{:?}",
-        verified.verification
-    );
-    let cost = verified.diagnostics.cost;
+    let (sol, cost) = solved_by_the_direct_start("fast_119_missed_regular.toml");
     assert!(((cost - 114.8380278) / 114.8380278).abs() < 1e-6, "{cost}");
     assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
 }
@@ -176,22 +183,7 @@ fn fast_119_is_solved_by_the_direct_start_on_the_finer_mesh() {
 /// cost (0.002548219), |ξ| near 1.
 #[test]
 fn issue12_080_is_solved_by_the_direct_start_in_the_multiplier_form() {
-    use suslov::lie::solve::DIRECT_START_ROUTE;
-    let loaded = suslov::config::load(&hard("issue12_080_missed_regular.toml")).unwrap();
-    let problem = loaded.problem.to_generic().unwrap();
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
-    let last = sol.routes.last().unwrap();
-    assert_eq!(
-        (last.route, last.stopped.as_deref()),
-        (DIRECT_START_ROUTE, None)
-    );
-    let verified = lie::verify_solution(&sol);
-    assert!(
-        verified.verification.passed(),
-        "{:?}",
-        verified.verification
-    );
-    let cost = verified.diagnostics.cost;
+    let (sol, cost) = solved_by_the_direct_start("issue12_080_missed_regular.toml");
     assert!(((cost - 0.002548219) / 0.002548219).abs() < 1e-6, "{cost}");
     assert!(min_xi(&sol.bvp) > 0.99, "{}", min_xi(&sol.bvp));
 }
@@ -205,22 +197,7 @@ fn issue12_080_is_solved_by_the_direct_start_in_the_multiplier_form() {
 /// refined (169.599053, 169.599046, 169.599044 on 100, 200, 400 intervals), with |ξ| ≥ 0.89.
 #[test]
 fn fast_198_is_solved_from_the_refined_direct_minimum() {
-    use suslov::lie::solve::DIRECT_START_ROUTE;
-    let loaded = suslov::config::load(&hard("fast_198_rounding_limited.toml")).unwrap();
-    let problem = loaded.problem.to_generic().unwrap();
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
-    let last = sol.routes.last().unwrap();
-    assert_eq!(
-        (last.route, last.stopped.as_deref()),
-        (DIRECT_START_ROUTE, None)
-    );
-    let verified = lie::verify_solution(&sol);
-    assert!(
-        verified.verification.passed(),
-        "{:?}",
-        verified.verification
-    );
-    let cost = verified.diagnostics.cost;
+    let (sol, cost) = solved_by_the_direct_start("fast_198_rounding_limited.toml");
     assert!((cost - 169.59903114).abs() < 1e-6, "{cost}");
     assert!(cost < 169.599044, "below the finest direct minimum: {cost}");
     assert!(min_xi(&sol.bvp) > 0.89, "{}", min_xi(&sol.bvp));

@@ -302,24 +302,41 @@ fn a_wide_spiral_sigmoid_solves_by_the_desired_start() {
 /// converges (267 nodes): the same b and cost (5e-12 relative), verified.
 #[test]
 fn a_polish_limited_by_rounding_converges_at_once() {
-    let loaded = hard("fast_078_polish_steps.toml");
+    let sol = polished_rounding_limited(
+        "fast_078_polish_steps.toml",
+        6.517842210645527,
+        23.839536323653604,
+    );
+    assert_eq!(
+        solved_by(&sol),
+        [("default", false), ("joint weights", true)]
+    );
+}
+
+/// `file` (a hard file) solved with default settings, its polish completed with at least one
+/// rounding-limited Newton stop, verified, at `b` and `cost` (session 16's values) to 1e-9.
+fn polished_rounding_limited(
+    file: &str,
+    b: f64,
+    cost: f64,
+) -> lie::LieSolution<suslov::model::generated::So3> {
+    let loaded = hard(file);
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("a route solves it");
-    let routes = solved_by(&sol);
-    assert_eq!(routes, [("default", false), ("joint weights", true)]);
+    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
     let polish = sol.stages.last().expect("stages");
     assert_eq!(polish.name, "polish");
     assert!(polish.outcome.is_completed());
     assert!(sol.bvp.stats.rounding_limited >= 1, "{:?}", sol.bvp.stats);
-    assert!(lie::verify_solution(&sol).verification.passed());
-    // Session 16's result, polished in tolerance steps on 1729 nodes.
-    let b = sol.terminal_time();
-    assert!((b - 6.517842210645527).abs() < 1e-9 * b, "{b}");
+    let v = lie::verify_solution(&sol);
+    assert!(v.verification.passed(), "{:?}", v.verification.verdict());
+    let got = sol.terminal_time();
+    assert!((got - b).abs() < 1e-9 * b, "{file}: b = {got}");
     assert!(
-        (sol.cost() - 23.839536323653604).abs() < 1e-9 * sol.cost(),
-        "{}",
+        (sol.cost() - cost).abs() < 1e-9 * cost,
+        "{file}: J = {}",
         sol.cost()
     );
+    sol
 }
 
 /// A solution reached past a fold is certified in its summary (it could be a saddle): the
@@ -506,24 +523,13 @@ fn a_start_too_stiff_at_a_small_beta_m_solves_at_the_target_beta() {
 /// cost of session 16's partial result (which passed every check at 1e-8 too) to 1e-9.
 #[test]
 fn a_polish_where_xi_nearly_vanishes_converges_rounding_limited() {
-    let loaded = hard("fast_038_polish_collapse.toml");
-    let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("solved");
-    let polish = sol.stages.last().expect("stages");
-    assert_eq!(polish.name, "polish");
-    assert!(polish.outcome.is_completed());
-    assert!(sol.bvp.stats.rounding_limited >= 1, "{:?}", sol.bvp.stats);
-    let v = lie::verify_solution(&sol);
-    assert!(v.verification.passed(), "{:?}", v.verification.verdict());
+    let sol = polished_rounding_limited(
+        "fast_038_polish_collapse.toml",
+        15.416155959628533,
+        20.6610100354725,
+    );
     let min_xi = min_xi(&sol.bvp);
     assert!(min_xi < 0.05, "{min_xi}");
-    let b = sol.terminal_time();
-    assert!((b - 15.416155959628533).abs() < 1e-9 * b, "{b}");
-    assert!(
-        (sol.cost() - 20.6610100354725).abs() < 1e-9 * sol.cost(),
-        "{}",
-        sol.cost()
-    );
 }
 
 /// Corpus problem fast-139 (α = 0.16 against β = 2.98): its solution's ξ nearly vanishes

@@ -2163,13 +2163,24 @@ fn direct_attempt<M: Model>(
     let mut start = super::direct::direct_start_in(problem, intervals, DirectGuess::Segment, form)
         .map_err(|e| DirectFailure::new(e.to_string()))?;
     let mut stop = None;
+    // A BVP stop past the start (a partial at the target weights), the refined minimum's
+    // preferred.
+    let keep_stop = |e: LieSolveError<M>, stop: &mut Option<Box<LieSolveError<M>>>| {
+        if matches!(e, LieSolveError::StageFailed { .. }) {
+            *stop = Some(Box::new(e));
+        }
+    };
     let mut solved = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
         Ok(sol) => Ok(sol),
-        Err(e) => Err(format!(
-            "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| {:.2e}), \
-             but the BVP from it stopped: {e}",
-            start.cost, start.min_xi
-        )),
+        Err(e) => {
+            let why = format!(
+                "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| \
+                 {:.2e}), but the BVP from it stopped: {e}",
+                start.cost, start.min_xi
+            );
+            keep_stop(e, &mut stop);
+            Err(why)
+        }
     };
     if let Err(why) = &mut solved {
         let finer = DIRECT_RETRY_FACTOR * intervals;
@@ -2184,9 +2195,7 @@ fn direct_attempt<M: Model>(
                                  stopped: {e}",
                                 refined.cost
                             ));
-                            if matches!(e, LieSolveError::StageFailed { .. }) {
-                                stop = Some(Box::new(e));
-                            }
+                            keep_stop(e, &mut stop);
                         }
                     }
                     start = refined;
