@@ -12,7 +12,7 @@
 
 mod ocpkit;
 use ocpkit::{dense, dense_reduced};
-use suslov::ocp::certify::second_order;
+use suslov::ocp::certify::{second_order, second_order_near};
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
     certify, sqp, Boundary, Certificate, Horizon, LinearCondition, NewtonOptions, OcpProblem,
@@ -389,6 +389,52 @@ fn oscillator_minimum_and_saddle_are_told_apart() {
         }
         eprintln!("  max |lambda_p/omega_p - pi(t_p)| = {worst:.1e}");
         assert!(worst < 1e-5 / st.abs(), "costate mismatch {worst}");
+    }
+}
+
+/// The test seeded by Newton's last factorization (`second_order_near`, what `certify` runs)
+/// against the plain test at the same point: the same verdict, inertia and negative
+/// directions; margins that overlap and contain the dense `μ_min`; for a minimum, the
+/// factorization at `σ = 0` saved; for a saddle, the seed rejected by its count and the plain
+/// test run after it.
+#[test]
+fn the_test_seeded_by_newton_agrees_with_the_plain_test() {
+    let prob = Quadratic::oscillator(false);
+    let opts = SecondOrderOptions::default();
+    for (t_len, verdict) in [(2.0, Verdict::Certified), (4.0, Verdict::NotMinimum)] {
+        let tr = oscillator_transcription(&prob, t_len, (20.0 * t_len) as usize);
+        let v0 = oscillator_extremal(&tr, t_len);
+        let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
+        let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
+        let start = KktPoint { v: v0, y: y0 };
+        let (point, _, near) =
+            kkt::newton_keeping_factor(&tr, &matrix, start, &NewtonOptions::default())
+                .expect("Newton");
+        let near = near.expect("the extremal is not the discrete KKT point: a Newton step");
+        let plain = second_order(&tr, &matrix, &point, &opts).expect("plain");
+        let seeded = second_order_near(&tr, &matrix, &point, &opts, Some(&near)).expect("seeded");
+        let (_, mu) = dense_reduced(&tr, &point);
+        eprintln!(
+            "T = {t_len}: plain {} {:?} ({} factorizations), seeded {} {:?} ({}), dense mu_min {mu:.6e}",
+            plain.inertia, plain.margin, plain.factorizations, seeded.inertia, seeded.margin,
+            seeded.factorizations
+        );
+        assert_eq!(plain.verdict, verdict);
+        assert_eq!(seeded.verdict, verdict);
+        assert_eq!(seeded.inertia, plain.inertia);
+        assert_eq!(
+            seeded.negative_curvature_directions,
+            plain.negative_curvature_directions
+        );
+        let (a, b) = plain.margin.expect("plain margin");
+        let (c, d) = seeded.margin.expect("seeded margin");
+        let slack = 1e-9 * mu.abs();
+        assert!(a - slack <= mu && mu <= b + slack && c - slack <= mu && mu <= d + slack);
+        if verdict == Verdict::Certified {
+            assert!(seeded.factorizations < plain.factorizations);
+        } else {
+            assert!(seeded.factorizations > plain.factorizations);
+        }
     }
 }
 

@@ -21,12 +21,23 @@
 //!
 //! With `M` the metric of [`Transcription::metric_diagonal`] (`‖δv‖²_M ≈ ∫|δu|² dt` plus the
 //! free initial data), the number of negative eigenvalues above `m` at shift `σ` is the number
-//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. Two such counts bracket the
-//! smallest one, `μ_min`: the second variation satisfies `δ²ℒ ≥ μ_min ‖δv‖²_M` on the
-//! linearized constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`,
-//! `x(0) = x(T) = 0` it tends to `1 − (T/π)²`). Where to put the two shifts is estimated by
-//! the Lanczos method with a factorization already at hand (solves only); the bracket rests
-//! on the counts alone, and bisection on `σ` remains the fallback (see `margin`).
+//! of generalized eigenvalues `μ` of `(ZᵀHZ, ZᵀMZ)` below `σ`. The smallest one, `μ_min`, is
+//! bracketed: the second variation satisfies `δ²ℒ ≥ μ_min ‖δv‖²_M` on the linearized
+//! constraints, a mesh-independent number (for `ẋ = u`, `L = (u² − x²)/2`, `x(0) = x(T) = 0`
+//! it tends to `1 − (T/π)²`). The lower end is a count (no eigenvalue below it); the upper end
+//! is the Rayleigh quotient of an explicit direction in `null(A)` (Courant–Fischer), or a
+//! count. Where to count is estimated by the Lanczos method with a factorization already at
+//! hand (solves only); the bracket rests on the count and the direction, not on the estimate,
+//! and bisection on `σ` remains the fallback (see `margin`).
+//!
+//! # Cost
+//!
+//! [`certify`] factorizes the KKT pattern for the least-squares multipliers and for each
+//! Newton step (solves only: each solve's backward error is checked, no inertia is needed),
+//! then, at a point it certifies, once more: the count at the margin's lower end `lo > 0`,
+//! which also decides the verdict (no eigenvalue below `lo > 0` implies SOSC), with the
+//! Lanczos estimate made from Newton's last factorization ([`second_order_near`]). A point
+//! that is not certified costs the factorization at `σ = 0` and the margin's counts.
 
 use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
@@ -87,7 +98,8 @@ pub struct SecondOrderReport {
     pub n_var: usize,
     /// Number of constraints `m`.
     pub n_con: usize,
-    /// Inertia of the KKT matrix (`σ = 0`); SOSC ⇔ `(n, m, 0)`.
+    /// Inertia of the KKT matrix (`σ = 0`); SOSC ⇔ `(n, m, 0)`. Counted from its
+    /// factorization, or implied by the count at a shift `σ > 0` (see [`second_order_near`]).
     pub inertia: Inertia,
     /// Number of negative eigenvalues of the reduced Hessian (`negative − m`).
     pub negative_curvature_directions: usize,
@@ -96,9 +108,10 @@ pub struct SecondOrderReport {
     /// Bracket `[lo, hi]` of the smallest generalized eigenvalue `μ_min` of the reduced
     /// Hessian in the metric `M` (`None` when degenerate or the search ran out of budget).
     pub margin: Option<(f64, f64)>,
-    /// Backward error of the `σ = 0` factorization.
+    /// Backward error of the factorization whose inertia decided the verdict (`σ = 0`, or
+    /// the lower end of the margin when that count decided it: [`second_order_near`]).
     pub backward_error: f64,
-    /// Smallest `|pivot| / ‖K‖` of the `σ = 0` factorization.
+    /// Smallest `|pivot| / ‖K‖` of that factorization.
     pub min_pivot_ratio: f64,
     /// Factorizations done.
     pub factorizations: usize,
@@ -139,6 +152,8 @@ struct ShiftedKkt<'k> {
     values: Vec<f64>,
     /// The Lagrangian Hessian (lower triangle), for Rayleigh quotients.
     hessian: Vec<Entry>,
+    /// The constraint Jacobian `A`, for the residual `A v` of a direction.
+    jacobian: Vec<Entry>,
     metric: Vec<f64>,
     n_var: usize,
     n_con: usize,
@@ -152,11 +167,13 @@ impl<'k> ShiftedKkt<'k> {
     ) -> Self {
         let (nv, nc) = (tr.n_var(), tr.n_con());
         let hessian = tr.lagrangian_hessian(&pt.v, &pt.y);
-        let values = kkt.values(&vec![0.0; nv], &hessian, &tr.jacobian(&pt.v));
+        let jacobian = tr.jacobian(&pt.v);
+        let values = kkt.values(&vec![0.0; nv], &hessian, &jacobian);
         Self {
             kkt,
             values,
             hessian,
+            jacobian,
             metric: tr.metric_diagonal(&pt.v),
             n_var: nv,
             n_con: nc,
@@ -213,6 +230,51 @@ impl<'k> ShiftedKkt<'k> {
         h / self.m_dot(v, v)
     }
 
+    /// `‖A v‖∞ / ‖|A| |v|‖∞`: how far `v` is from `null(A)`, relative to the magnitudes that
+    /// the products sum (rounding gives about `1e-16`).
+    fn constraint_residual(&self, v: &[f64]) -> f64 {
+        let mut r = vec![0.0; self.n_con];
+        let mut m = vec![0.0; self.n_con];
+        for &(i, j, a) in &self.jacobian {
+            r[i] += a * v[j];
+            m[i] += (a * v[j]).abs();
+        }
+        let top = m.iter().fold(0.0_f64, |x, y| x.max(*y));
+        let res = r.iter().fold(0.0_f64, |x, y| x.max(y.abs()));
+        if top > 0.0 {
+            res / top
+        } else {
+            res
+        }
+    }
+
+    /// The number of eigenvalues of the pencil below `σ` (`excess` of `K(σ)`), trying `σ` and
+    /// two nearby shifts (a shift on an eigenvalue makes `K(σ)` singular): the shift used, the
+    /// count and the factorization, or `None` when none of the three gave a count.
+    fn count(
+        &self,
+        sigma: f64,
+        used: &mut usize,
+    ) -> Result<Option<(f64, usize, LbltFactor)>, SecondOrderError> {
+        for s in [
+            sigma,
+            sigma * (1.0 + 1e-7) + 1e-12,
+            sigma * (1.0 - 1e-7) - 1e-12,
+        ] {
+            *used += 1;
+            match self.factorize(s) {
+                Ok(factor) => {
+                    if let Some(c) = self.excess(factor.inertia())? {
+                        return Ok(Some((s, c, factor)));
+                    }
+                }
+                Err(InertiaError::Breakdown { .. }) => {}
+                Err(e) => return Err(e.into()),
+            }
+        }
+        Ok(None)
+    }
+
     /// A deterministic start with every component excited.
     fn start_vector(&self) -> Vec<f64> {
         (0..self.n_var)
@@ -244,8 +306,37 @@ pub fn second_order<P: OcpProblem + ?Sized>(
     pt: &KktPoint,
     opts: &SecondOrderOptions,
 ) -> Result<SecondOrderReport, SecondOrderError> {
+    second_order_near(tr, kkt, pt, opts, None)
+}
+
+/// [`second_order`], given (`near`) a factorization of a KKT matrix near this one, such as
+/// the last step of Newton's method to this point ([`kkt::newton_keeping_factor`]; its
+/// inertia need not be proven).
+///
+/// It saves the factorization at `σ = 0` of a point it certifies: the Lanczos estimate `μ̂` of
+/// `μ_min` is made with `near`'s solves, and the count at the margin's lower end
+/// `lo = μ̂ − h > 0` (see the module docs) decides the verdict. No eigenvalue of the pencil below
+/// `lo > 0` means `Zᵀ(H − lo M)Z ≻ 0`, so `ZᵀHZ ≻ lo ZᵀMZ ⪰ 0`: SOSC holds, and the inertia
+/// of `K(0)` is `(n, m, 0)` (reported as such; the backward error and the smallest pivot are
+/// then those of the factorization at `lo`). The estimate only says where to count. If the
+/// count disagrees (an eigenvalue below `lo`, or `lo ≤ 0`), the test starts over as
+/// [`second_order`] does, and the factorizations spent are counted.
+pub fn second_order_near<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
+    pt: &KktPoint,
+    opts: &SecondOrderOptions,
+    near: Option<&LbltFactor>,
+) -> Result<SecondOrderReport, SecondOrderError> {
     let kkt = ShiftedKkt::new(tr, kkt, pt);
+    let mut used = 0;
+    if let Some(near) = near {
+        if let Some(report) = certified_from_estimate(&kkt, near, opts, &mut used)? {
+            return Ok(report);
+        }
+    }
     let factor = kkt.factorize(0.0)?;
+    used += 1;
     let inertia = factor.inertia();
     let mut report = SecondOrderReport {
         n_var: kkt.n_var,
@@ -256,7 +347,7 @@ pub fn second_order<P: OcpProblem + ?Sized>(
         margin: None,
         backward_error: factor.backward_error(),
         min_pivot_ratio: factor.min_pivot_ratio(),
-        factorizations: 1,
+        factorizations: used,
         weakest_direction: None,
         weakest_rayleigh: None,
     };
@@ -269,20 +360,82 @@ pub fn second_order<P: OcpProblem + ?Sized>(
     } else {
         Verdict::NotMinimum
     };
-    let Some(bracket) = margin(&kkt, factor, k0 == 0, opts, &mut report.factorizations)? else {
-        return Ok(report);
+    let bracket = margin(&kkt, factor, k0 == 0, opts, &mut report.factorizations)?;
+    finish(&kkt, &mut report, bracket);
+    Ok(report)
+}
+
+/// The certificate of [`second_order_near`] when the estimate from `near` is confirmed
+/// (`None` otherwise).
+fn certified_from_estimate(
+    kkt: &ShiftedKkt,
+    near: &LbltFactor,
+    opts: &SecondOrderOptions,
+    used: &mut usize,
+) -> Result<Option<SecondOrderReport>, SecondOrderError> {
+    let Some((mu, vector)) = lanczos(kkt, near, 0.0, opts.margin_rtol) else {
+        return Ok(None);
+    };
+    let h = 0.45 * opts.margin_rtol * mu.abs();
+    if mu - h <= 0.0 || mu.is_nan() || *used + 1 > opts.max_factorizations {
+        return Ok(None);
+    }
+    let Some((lo, 0, factor)) = kkt.count(mu - h, used)? else {
+        return Ok(None);
+    };
+    if lo <= 0.0 {
+        return Ok(None);
+    }
+    let mut report = SecondOrderReport {
+        n_var: kkt.n_var,
+        n_con: kkt.n_con,
+        inertia: Inertia {
+            positive: kkt.n_var,
+            negative: kkt.n_con,
+            zero: 0,
+        },
+        negative_curvature_directions: 0,
+        verdict: Verdict::Certified,
+        margin: None,
+        backward_error: factor.backward_error(),
+        min_pivot_ratio: factor.min_pivot_ratio(),
+        factorizations: *used,
+        weakest_direction: None,
+        weakest_rayleigh: None,
+    };
+    let bracket = match upper_end(
+        kkt,
+        lo,
+        factor,
+        vector,
+        mu + h,
+        opts,
+        &mut report.factorizations,
+    )? {
+        Ok(bracket) => Some(bracket),
+        // Bisection from what is proven.
+        Err((lo, hi)) => bisect(kkt, lo, hi, opts, &mut report.factorizations)?,
+    };
+    finish(kkt, &mut report, bracket);
+    Ok(Some(report))
+}
+
+/// Fills the margin and the weakest direction of `report` from `bracket` (for a bracket
+/// without a direction: inverse iteration with a factorization just below `lo`).
+fn finish(kkt: &ShiftedKkt, report: &mut SecondOrderReport, bracket: Option<Bracket>) {
+    let Some(bracket) = bracket else {
+        return;
     };
     let (lo, hi) = (bracket.lo, bracket.hi);
     report.margin = Some((lo, hi));
-    let weakest = match bracket.below {
-        // The shift `lo` is just below `μ_min`, and the estimate close to its eigenvector.
-        Some((factor, estimate)) => inverse_iteration(&kkt, &factor, estimate, true),
+    let weakest = match bracket.weakest {
+        Some(weakest) => Some(weakest),
         None => {
             let sigma = lo - (hi - lo).max(1e-3 * lo.abs());
             match kkt.factorize(sigma) {
                 Ok(factor) => {
                     report.factorizations += 1;
-                    inverse_iteration(&kkt, &factor, kkt.start_vector(), false)
+                    inverse_iteration(kkt, &factor, kkt.start_vector(), false)
                 }
                 Err(_) => None,
             }
@@ -292,7 +445,6 @@ pub fn second_order<P: OcpProblem + ?Sized>(
         report.weakest_direction = Some(v);
         report.weakest_rayleigh = Some(q);
     }
-    Ok(report)
 }
 
 /// Inverse iteration for the eigenvector of `μ_min` with a factorization of `K(σ)`, `σ` just
@@ -331,17 +483,21 @@ fn inverse_iteration(
     Some((v, q))
 }
 
-/// A bracket `[lo, hi]` of `μ_min` (no eigenvalue below `lo`, at least one below `hi`).
+/// A bracket `[lo, hi]` of `μ_min` (no eigenvalue below `lo`, at least one at or below `hi`).
 struct Bracket {
     lo: f64,
     hi: f64,
-    /// When the bracket comes from an estimate (see [`margin`]): the factorization at `lo`,
-    /// just below `μ_min`, and the estimate of the eigenvector, for [`inverse_iteration`].
-    below: Option<(LbltFactor, Vec<f64>)>,
+    /// The weakest direction and its Rayleigh quotient, when the bracket's construction
+    /// computed them (see [`upper_end`]).
+    weakest: Option<(Vec<f64>, f64)>,
 }
 
 /// The first probe of the bracket searches, away from simple numbers (see [`margin`]).
 const FIRST_PROBE: f64 = 0.7123;
+
+/// Largest [`ShiftedKkt::constraint_residual`] of a direction whose Rayleigh quotient is
+/// taken as an upper end of the margin ([`upper_end`]).
+const NULL_SPACE_RTOL: f64 = 1e-10;
 
 /// Brackets `μ_min` to the relative width `margin_rtol` (`None` when the budget runs out).
 ///
@@ -351,17 +507,19 @@ const FIRST_PROBE: f64 = 0.7123;
 ///    factorization ([`lanczos`]: solves only): the eigenvalues `1/(μ − σ₀) > 0` of
 ///    `v ↦ K(σ₀)⁻¹[M v; 0]` (restricted to `v`), self-adjoint in the `M` inner product on
 ///    `null(A)`, the largest being `1/(μ_min − σ₀)`.
-/// 3. The bracket `[μ̂ − h, μ̂ + h]`, `h = 0.45 · margin_rtol · |μ̂|`, confirmed by the inertia
-///    of two factorizations: no eigenvalue below `μ̂ − h`, at least one below `μ̂ + h`. The
-///    claim rests on these counts (Sylvester's law), not on the estimate.
-/// 4. If the estimate is not confirmed (or not available), bisection from what is known: a
-///    geometric search for an upper end (first probe `0.7123`, then ×4) and bisection to the
-///    relative width `margin_rtol`.
+/// 3. The lower end `lo = μ̂ − h`, `h = 0.45 · margin_rtol · |μ̂|`, confirmed by the inertia of
+///    its factorization: no eigenvalue below it. The upper end ([`upper_end`]): the Rayleigh
+///    quotient of the eigenvector found by inverse iteration with that factorization, or the
+///    count at `μ̂ + h`. The lower end rests on the count (Sylvester's law), the upper one on
+///    an explicit direction or a count, not on the estimate.
+/// 4. If the estimate is not confirmed (or not available), bisection from what is known
+///    ([`bisect`]).
 ///
 /// A shift that lands on an eigenvalue (a zero pivot, or a breakdown of the factorization:
-/// `K(σ)` is singular there) is moved by a relative `1e-7`, and the bracket keeps the shift
-/// actually used. Such coincidences are not rare: for a cost `|u|²/2` the metric `M` equals
-/// the control block of `H`, so `σ = 1` can be an eigenvalue of high multiplicity.
+/// `K(σ)` is singular there) is moved by a relative `1e-7` ([`ShiftedKkt::count`]), and the
+/// bracket keeps the shift actually used. Such coincidences are not rare: for a cost `|u|²/2`
+/// the metric `M` equals the control block of `H`, so `σ = 1` can be an eigenvalue of high
+/// multiplicity.
 fn margin(
     kkt: &ShiftedKkt,
     factor0: LbltFactor,
@@ -369,29 +527,6 @@ fn margin(
     opts: &SecondOrderOptions,
     used: &mut usize,
 ) -> Result<Option<Bracket>, SecondOrderError> {
-    // The number of eigenvalues below σ, trying σ and two nearby shifts: (shift used, count,
-    // factorization).
-    let count = |sigma: f64,
-                 used: &mut usize|
-     -> Result<Option<(f64, usize, LbltFactor)>, SecondOrderError> {
-        for s in [
-            sigma,
-            sigma * (1.0 + 1e-7) + 1e-12,
-            sigma * (1.0 - 1e-7) - 1e-12,
-        ] {
-            *used += 1;
-            match kkt.factorize(s) {
-                Ok(factor) => {
-                    if let Some(c) = kkt.excess(factor.inertia())? {
-                        return Ok(Some((s, c, factor)));
-                    }
-                }
-                Err(InertiaError::Breakdown { .. }) => {}
-                Err(e) => return Err(e.into()),
-            }
-        }
-        Ok(None)
-    };
     let out_of_budget = |used: usize| used >= opts.max_factorizations;
     // 1. No eigenvalue below `lo`; at least one below `hi` when known.
     let (mut lo, mut hi, base) = if positive {
@@ -404,7 +539,7 @@ fn margin(
             if out_of_budget(*used) {
                 return Ok(None);
             }
-            match count(probe, used)? {
+            match kkt.count(probe, used)? {
                 None => return Ok(None),
                 Some((s, 0, factor)) => break (s, Some(hi), factor),
                 Some((s, _, _)) => {
@@ -418,23 +553,15 @@ fn margin(
     if let Some((mu, vector)) = lanczos(kkt, &base, lo, opts.margin_rtol) {
         drop(base);
         let h = 0.45 * opts.margin_rtol * mu.abs();
-        if mu - h > lo && *used + 2 <= opts.max_factorizations {
-            match count(mu - h, used)? {
+        if mu - h > lo && *used < opts.max_factorizations {
+            match kkt.count(mu - h, used)? {
                 Some((s_lo, 0, factor)) => {
-                    lo = s_lo;
-                    match count(mu + h, used)? {
-                        Some((s_hi, c, _)) if c > 0 => {
-                            hi = Some(s_hi);
-                            if s_hi - s_lo <= opts.margin_rtol * s_lo.abs().max(s_hi.abs()) {
-                                return Ok(Some(Bracket {
-                                    lo: s_lo,
-                                    hi: s_hi,
-                                    below: Some((factor, vector)),
-                                }));
-                            }
+                    match upper_end(kkt, s_lo, factor, vector, mu + h, opts, used)? {
+                        Ok(bracket) => return Ok(Some(bracket)),
+                        Err((l, u)) => {
+                            lo = l;
+                            hi = u.or(hi);
                         }
-                        Some((s_hi, _, _)) => lo = s_hi,
-                        None => {}
                     }
                 }
                 Some((s_lo, _, _)) => hi = Some(s_lo),
@@ -443,6 +570,65 @@ fn margin(
         }
     }
     // 4. Bisection.
+    bisect(kkt, lo, hi, opts, used)
+}
+
+/// The upper end of a bracket whose lower end `lo` is proven by the count of `factor` (no
+/// eigenvalue below it), from `estimate`, an estimate of the eigenvector of `μ_min`.
+///
+/// Inverse iteration with `factor` gives the eigenvector `v`, in `null(A)` up to rounding, and
+/// its Rayleigh quotient `q = vᵀHv / vᵀMv`, an upper bound of `μ_min` (Courant–Fischer:
+/// `μ_min` is the smallest such quotient over `null(A)`). It is the upper end when `v` is in
+/// `null(A)` to [`NULL_SPACE_RTOL`] and `[lo, q]` is as narrow as asked; otherwise the count
+/// at `probe` (the estimate's `μ̂ + h`) must find an eigenvalue below it. When neither closes
+/// the bracket: what is known for [`bisect`], `(lo, hi)`.
+fn upper_end(
+    kkt: &ShiftedKkt,
+    lo: f64,
+    factor: LbltFactor,
+    estimate: Vec<f64>,
+    probe: f64,
+    opts: &SecondOrderOptions,
+    used: &mut usize,
+) -> Result<Result<Bracket, (f64, Option<f64>)>, SecondOrderError> {
+    let narrow = |lo: f64, hi: f64| hi - lo <= opts.margin_rtol * lo.abs().max(hi.abs());
+    let weakest = inverse_iteration(kkt, &factor, estimate, true);
+    drop(factor);
+    if let Some((v, q)) = &weakest {
+        if q.is_finite()
+            && *q >= lo
+            && narrow(lo, *q)
+            && kkt.constraint_residual(v) <= NULL_SPACE_RTOL
+        {
+            return Ok(Ok(Bracket {
+                lo,
+                hi: *q,
+                weakest,
+            }));
+        }
+    }
+    if *used >= opts.max_factorizations {
+        return Ok(Err((lo, None)));
+    }
+    Ok(match kkt.count(probe, used)? {
+        Some((hi, c, _)) if c > 0 && narrow(lo, hi) => Ok(Bracket { lo, hi, weakest }),
+        Some((hi, c, _)) if c > 0 => Err((lo, Some(hi))),
+        Some((s, _, _)) => Err((s, None)),
+        None => Err((lo, None)),
+    })
+}
+
+/// Bisection on `σ` from `lo` (no eigenvalue below it) and `hi` (at least one below it, when
+/// known; otherwise a geometric search for it: first probe `0.7123`, then ×4) to the relative
+/// width `margin_rtol` (`None` when the budget runs out).
+fn bisect(
+    kkt: &ShiftedKkt,
+    mut lo: f64,
+    hi: Option<f64>,
+    opts: &SecondOrderOptions,
+    used: &mut usize,
+) -> Result<Option<Bracket>, SecondOrderError> {
+    let out_of_budget = |used: usize| used >= opts.max_factorizations;
     let mut hi = match hi {
         Some(hi) => hi,
         None => {
@@ -451,7 +637,7 @@ fn margin(
                 if out_of_budget(*used) {
                     return Ok(None);
                 }
-                match count(probe, used)? {
+                match kkt.count(probe, used)? {
                     None => return Ok(None),
                     Some((s, 0, _)) => {
                         lo = s;
@@ -467,7 +653,7 @@ fn margin(
             return Ok(None);
         }
         let mid = 0.5 * (lo + hi);
-        match count(mid, used)? {
+        match kkt.count(mid, used)? {
             None => return Ok(None),
             Some((s, 0, _)) => lo = s,
             Some((s, _, _)) => hi = s,
@@ -476,7 +662,7 @@ fn margin(
     Ok(Some(Bracket {
         lo,
         hi,
-        below: None,
+        weakest: None,
     }))
 }
 
@@ -657,13 +843,15 @@ pub fn certify<P: OcpProblem + ?Sized>(
     let y0 = kkt::least_squares_multipliers(tr, &matrix, &v0)?;
     let start = KktPoint { v: v0, y: y0 };
     let candidate = kkt::residual(tr, &start);
-    let (point, newton) = kkt::newton(tr, &matrix, start.clone(), newton_opts)?;
+    let (point, newton, near) =
+        kkt::newton_keeping_factor(tr, &matrix, start.clone(), newton_opts)?;
     let displacement = point
         .v
         .iter()
         .zip(&start.v)
         .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()));
-    let second_order = second_order(tr, &matrix, &point, opts)?;
+    let second_order = second_order_near(tr, &matrix, &point, opts, near.as_ref())?;
+    drop(near);
     // At a certified point there is no conjugate point, by the inertia of the certificate's
     // factorization (see `super::conjugate`): no factorization of the restricted matrices.
     // (Not with linear start conditions, which the restricted matrices leave out: their

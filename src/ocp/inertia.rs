@@ -882,24 +882,36 @@ impl LbltFactor {
     /// Cost: the numeric factorization, plus about `3 + MAX_REFINEMENT_STEPS +
     /// CONTRACTION_ITERATIONS` solves and products with `K` for the checks.
     pub fn factorize(pattern: &SymmetricPattern, values: &[f64]) -> Result<Self, InertiaError> {
-        Self::factorize_checked(pattern, values, true)
+        Self::factorize_checked(pattern, values, Checks::Proof)
     }
 
-    /// [`LbltFactor::factorize`] without rejecting a factorization whose refinement
-    /// contraction is large (its inertia is then not proven): for a method that only needs
-    /// steps, guarded by its own line search, such as [`mod@super::sqp`]. A non-finite backward
-    /// error is still an error.
+    /// [`LbltFactor::factorize`] without the proof of its inertia (no contraction estimate,
+    /// [`LbltFactor::contraction`] is NaN): for a method that only needs steps, guarded by its
+    /// own line search, such as [`mod@super::sqp`]. The test solve is made, and a non-finite
+    /// backward error is still an error.
     pub fn factorize_unproven(
         pattern: &SymmetricPattern,
         values: &[f64],
     ) -> Result<Self, InertiaError> {
-        Self::factorize_checked(pattern, values, false)
+        Self::factorize_checked(pattern, values, Checks::BackwardError)
+    }
+
+    /// The numeric factorization alone, for solves whose accuracy the caller checks itself
+    /// (by the backward error that [`LbltFactor::solve_in_place`] returns): no test solve and no
+    /// contraction estimate ([`LbltFactor::backward_error`] and [`LbltFactor::contraction`] are
+    /// NaN), and its inertia is not proven. Non-finite factors are still an error
+    /// ([`InertiaError::Breakdown`]).
+    pub fn factorize_for_solve(
+        pattern: &SymmetricPattern,
+        values: &[f64],
+    ) -> Result<Self, InertiaError> {
+        Self::factorize_checked(pattern, values, Checks::Nothing)
     }
 
     fn factorize_checked(
         pattern: &SymmetricPattern,
         values: &[f64],
-        proven: bool,
+        checks: Checks,
     ) -> Result<Self, InertiaError> {
         let p = &*pattern.inner;
         let n = p.n;
@@ -1103,6 +1115,9 @@ impl LbltFactor {
             n_two_by_two,
         };
 
+        if checks == Checks::Nothing {
+            return Ok(factor);
+        }
         // Backward error of a consistent test system K x = b, b = K y.
         let mut rng = XorShift64::new(0x9E37_79B9_7F4A_7C15);
         let y: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
@@ -1119,12 +1134,16 @@ impl LbltFactor {
             min_pivot_ratio: f.min_pivot_ratio(),
             max_abs_l: f.max_abs_l,
         };
-        factor.contraction = factor.estimate_contraction()?;
-        if berr.is_nan() || (proven && berr > BACKWARD_ERROR_TOL) {
-            return Err(unreliable(&factor));
+        if checks == Checks::BackwardError {
+            return if berr.is_nan() {
+                Err(unreliable(&factor))
+            } else {
+                Ok(factor)
+            };
         }
-        if !proven {
-            return Ok(factor);
+        factor.contraction = factor.estimate_contraction()?;
+        if berr.is_nan() || berr > BACKWARD_ERROR_TOL {
+            return Err(unreliable(&factor));
         }
         // Inertia preservation: only meaningful without zero pivots (a zero eigenvalue of K is
         // an eigenvalue 1 of I − M⁻¹K).
@@ -1374,6 +1393,17 @@ impl LbltFactor {
         }
         Ok((berr, steps))
     }
+}
+
+/// What [`LbltFactor::factorize_checked`] verifies after the numeric factorization.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Checks {
+    /// Test solve and contraction estimate: the inertia is proven ([`LbltFactor::factorize`]).
+    Proof,
+    /// Test solve only ([`LbltFactor::factorize_unproven`]).
+    BackwardError,
+    /// Neither ([`LbltFactor::factorize_for_solve`]).
+    Nothing,
 }
 
 /// Runs a call into faer, converting a panic (a bug) into [`InertiaError::Internal`].

@@ -10,7 +10,7 @@
 //!     [ A   0  ]     A = ∂c/∂v
 //! ```
 
-use super::inertia::{InertiaError, LbltFactor, SymmetricPattern};
+use super::inertia::{InertiaError, LbltFactor, SymmetricPattern, BACKWARD_ERROR_TOL};
 use super::problem::OcpProblem;
 use super::transcription::{Entry, Transcription};
 
@@ -206,6 +206,12 @@ impl KktMatrix {
         LbltFactor::factorize(&self.pattern, values)
     }
 
+    /// A factorization of the matrix with `values` for solves only
+    /// ([`LbltFactor::factorize_for_solve`]: each solve's backward error is the check).
+    pub fn factorize_for_solve(&self, values: &[f64]) -> Result<LbltFactor, InertiaError> {
+        LbltFactor::factorize_for_solve(&self.pattern, values)
+    }
+
     /// Number of unknowns.
     pub fn n_var(&self) -> usize {
         self.n_var
@@ -217,27 +223,38 @@ impl KktMatrix {
     }
 }
 
-/// Solves `K x = rhs` in place with a fresh factorization of `values`.
+/// Solves `K x = rhs` in place with a fresh factorization of `values` (returned, for further
+/// solves with the same matrix). The solve, refined, must have a backward error of at most
+/// [`BACKWARD_ERROR_TOL`] and a finite solution: that is the check of the factorization (its
+/// inertia is not needed, and not proven).
 fn solve_kkt(
     kkt: &KktMatrix,
     values: &[f64],
     rhs: &mut [f64],
     what: &'static str,
-) -> Result<(), KktError> {
+) -> Result<LbltFactor, KktError> {
     let singular = |e: InertiaError| KktError::Singular {
         what,
         reason: e.to_string(),
     };
-    let factor = kkt.factorize(values).map_err(singular)?;
-    factor.solve_in_place(rhs).map_err(singular)?;
-    if rhs.iter().all(|v| v.is_finite()) {
-        Ok(())
-    } else {
-        Err(KktError::Singular {
+    let factor = kkt.factorize_for_solve(values).map_err(singular)?;
+    let berr = factor.solve_in_place(rhs).map_err(singular)?;
+    if !rhs.iter().all(|v| v.is_finite()) {
+        return Err(KktError::Singular {
             what,
             reason: "non-finite solution".into(),
-        })
+        });
     }
+    if berr.is_nan() || berr > BACKWARD_ERROR_TOL {
+        return Err(KktError::Singular {
+            what,
+            reason: format!(
+                "the solve's backward error {berr:.1e} exceeds {BACKWARD_ERROR_TOL:.0e} after \
+                 refinement"
+            ),
+        });
+    }
+    Ok(factor)
 }
 
 /// The multipliers that minimize `‖∇J(v) + Aᵀ y‖₂` at a fixed primal point (the best
@@ -293,9 +310,23 @@ pub fn newton<P: OcpProblem + ?Sized>(
     start: KktPoint,
     opts: &NewtonOptions,
 ) -> Result<(KktPoint, NewtonReport), KktError> {
+    newton_keeping_factor(tr, kkt, start, opts).map(|(pt, report, _)| (pt, report))
+}
+
+/// [`newton`], also returning the factorization of its last step (of the KKT matrix at the
+/// last iterate before the converged point; `None` when the start had converged): a matrix
+/// near the one at the converged point, whose solves can seed estimates there (see
+/// [`super::certify::second_order_near`]). Its inertia is not proven.
+pub fn newton_keeping_factor<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
+    start: KktPoint,
+    opts: &NewtonOptions,
+) -> Result<(KktPoint, NewtonReport, Option<LbltFactor>), KktError> {
     let zeros = vec![0.0; tr.n_var()];
     let mut pt = start;
     let mut residuals = Vec::new();
+    let mut last_factor = None;
     let mut it = 0;
     loop {
         // The residual as [`residual`] computes it, its pieces kept for the step.
@@ -311,7 +342,7 @@ pub fn newton<P: OcpProblem + ?Sized>(
         };
         residuals.push(res);
         if res.relative_stationarity() <= opts.tolerance && res.feasibility <= opts.tolerance {
-            return Ok((pt, NewtonReport { residuals }));
+            return Ok((pt, NewtonReport { residuals }, last_factor));
         }
         let finite = res.stationarity.is_finite() && res.feasibility.is_finite();
         if it == opts.max_iterations || !finite {
@@ -325,7 +356,7 @@ pub fn newton<P: OcpProblem + ?Sized>(
         rhs.extend(constraints);
         rhs.iter_mut().for_each(|r| *r = -*r);
         let values = kkt.values(&zeros, &tr.lagrangian_hessian(&pt.v, &pt.y), &a);
-        solve_kkt(kkt, &values, &mut rhs, "Newton step")?;
+        last_factor = Some(solve_kkt(kkt, &values, &mut rhs, "Newton step")?);
         for (x, d) in pt.v.iter_mut().chain(pt.y.iter_mut()).zip(&rhs) {
             *x += d;
         }
