@@ -440,18 +440,27 @@ impl SymmetricPattern {
         let n_grouped = members.iter().filter(|m| m.len() > 1).count();
         let n_groups = members.len();
 
-        // Compressed graph (upper triangle, sorted) and AMD on it.
-        let mut cedges: Vec<(usize, usize)> = Vec::with_capacity(adj.col_idx.len() / 2 + n_groups);
-        for i in 0..n {
-            for &j in adj.row(i) {
-                let (a, b) = (group[i], group[j]);
-                if a < b {
-                    cedges.push((b, a));
+        // Compressed graph (upper triangle, sorted) and AMD on it (given groups keep their
+        // order and need neither).
+        let comp = if given_groups.is_none() {
+            let mut cedges: Vec<(usize, usize)> =
+                Vec::with_capacity(adj.col_idx.len() / 2 + n_groups);
+            for i in 0..n {
+                for &j in adj.row(i) {
+                    let (a, b) = (group[i], group[j]);
+                    if a < b {
+                        cedges.push((b, a));
+                    }
                 }
             }
-        }
-        cedges.extend((0..n_groups).map(|g| (g, g)));
-        let comp = Csr::from_pairs(n_groups, &cedges);
+            cedges.extend((0..n_groups).map(|g| (g, g)));
+            Csr::from_pairs(n_groups, &cedges)
+        } else {
+            Csr {
+                row_ptr: vec![0; n_groups + 1],
+                col_idx: Vec::new(),
+            }
+        };
         let mut cfwd: Vec<usize> = (0..n_groups).collect();
         let mut cinv = vec![0usize; n_groups];
         if given_groups.is_none() {
@@ -516,23 +525,30 @@ impl SymmetricPattern {
         let compact = Csr::from_pairs(n, &user);
         drop(user);
         let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
+        // Every column of the numeric pattern is contained in the augmented one (both sorted:
+        // one merge per column).
+        for c in 0..n {
+            let mut aug_rows = aug_row_idx[aug_col_ptr[c]..aug_col_ptr[c + 1]].iter();
+            for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
+                if !aug_rows.any(|&a| a == r) {
+                    return Err(InertiaError::Symbolic(format!(
+                        "internal error: entry ({r}, {c}) missing from the augmented pattern"
+                    )));
+                }
+            }
+        }
         let mut entry_pos = Vec::with_capacity(entries.len());
         for &(row, col) in entries {
             let (r, c) = (row.min(col), row.max(col));
-            let found = |cp: &[usize], ri: &[usize]| {
-                ri[cp[c]..cp[c + 1]]
-                    .binary_search(&r)
-                    .map(|k| cp[c] + k)
-                    .ok()
-            };
-            match (found(&col_ptr, &row_idx), found(&aug_col_ptr, &aug_row_idx)) {
-                (Some(k), Some(_)) => entry_pos.push(k),
-                _ => {
-                    return Err(InertiaError::Symbolic(format!(
-                        "internal error: entry ({row}, {col}) missing from the augmented pattern"
-                    )))
-                }
-            }
+            // Present: `compact` holds every entry.
+            let k = row_idx[col_ptr[c]..col_ptr[c + 1]]
+                .binary_search(&r)
+                .map_err(|_| {
+                    InertiaError::Symbolic(format!(
+                        "internal error: entry ({row}, {col}) missing from the pattern"
+                    ))
+                })?;
+            entry_pos.push(col_ptr[c] + k);
         }
 
         let nnz_augmented = aug_row_idx.len();
@@ -1040,13 +1056,18 @@ impl LbltFactor {
                 let v = node.val();
                 let ncols = v.ncols();
                 for j in 0..ncols {
-                    for i in (j + 1)..v.nrows() {
-                        let x = v[(i, j)];
-                        if !x.is_finite() {
-                            first_bad.get_or_insert(start + j);
+                    let below = v.col(j).subrows(j + 1, v.nrows() - j - 1);
+                    let (m, finite) = match below.try_as_col_major() {
+                        Some(c) => max_abs_and_finite(c.as_slice()),
+                        None => {
+                            let c: Vec<f64> = below.iter().copied().collect();
+                            max_abs_and_finite(&c)
                         }
-                        max_abs_l = max_abs_l.max(x.abs());
+                    };
+                    if !finite {
+                        first_bad.get_or_insert(start + j);
                     }
+                    max_abs_l = max_abs_l.max(m);
                 }
                 let mut k = 0;
                 while k < ncols {
@@ -1393,6 +1414,29 @@ impl LbltFactor {
         }
         Ok((berr, steps))
     }
+}
+
+/// The largest magnitude of the finite entries of `x`, and whether all are finite: with four
+/// running results, so that the loop vectorizes (`f64::max` in a fold does not; `a > m`
+/// ignores a NaN as `f64::max` does, and `0 · x` is `±0` for every finite `x`, NaN otherwise).
+fn max_abs_and_finite(x: &[f64]) -> (f64, bool) {
+    let mut m = [0.0f64; 4];
+    let mut z = [0.0f64; 4];
+    let mut chunks = x.chunks_exact(4);
+    for c in &mut chunks {
+        for k in 0..4 {
+            let a = c[k].abs();
+            m[k] = if a > m[k] { a } else { m[k] };
+            z[k] += c[k] * 0.0;
+        }
+    }
+    for (k, &v) in chunks.remainder().iter().enumerate() {
+        let a = v.abs();
+        m[k] = if a > m[k] { a } else { m[k] };
+        z[k] += v * 0.0;
+    }
+    let top = m[0].max(m[1]).max(m[2].max(m[3]));
+    (top, (z[0] + z[1] + z[2] + z[3]) == 0.0)
 }
 
 /// What [`LbltFactor::factorize_checked`] verifies after the numeric factorization.
