@@ -377,7 +377,9 @@ impl SymmetricPattern {
             }
         }
         drop(diag_sum);
-        // Off-diagonal adjacency (both directions), deduplicated.
+        // Off-diagonal adjacency (both directions): sorted and deduplicated for the matching
+        // and the compressed graph; given groups only need each row's neighbours
+        // (`group_closed_pattern`), in any order.
         let mut edges: Vec<(usize, usize)> = Vec::with_capacity(2 * entries.len());
         for &(row, col) in entries {
             if row != col {
@@ -385,7 +387,11 @@ impl SymmetricPattern {
                 edges.push((col, row));
             }
         }
-        let adj = Csr::from_pairs(n, &edges);
+        let adj = if given_groups.is_some() {
+            Csr::buckets(n, &edges)
+        } else {
+            Csr::from_pairs(n, &edges)
+        };
         drop(edges);
 
         // Pair structurally zero-diagonal rows with neighbours; a zero-diagonal row left
@@ -634,7 +640,7 @@ impl SymmetricPattern {
 const NONE: usize = usize::MAX;
 
 /// Compressed rows, columns sorted and distinct in each row (also used as compressed columns
-/// of the transpose).
+/// of the transpose); from [`Csr::buckets`], in the order given and with repeats.
 struct Csr {
     row_ptr: Vec<usize>,
     col_idx: Vec<usize>,
@@ -644,19 +650,10 @@ impl Csr {
     /// From `(row, col)` pairs in any order, repeats allowed: a counting sort by row, then each
     /// (short) row sorted and deduplicated.
     fn from_pairs(n: usize, pairs: &[(usize, usize)]) -> Self {
-        let mut start = vec![0usize; n + 1];
-        for &(r, _) in pairs {
-            start[r + 1] += 1;
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut next = start.clone();
-        let mut cols = vec![0usize; pairs.len()];
-        for &(r, c) in pairs {
-            cols[next[r]] = c;
-            next[r] += 1;
-        }
+        let Self {
+            row_ptr: start,
+            col_idx: mut cols,
+        } = Self::buckets(n, pairs);
         let mut row_ptr = Vec::with_capacity(n + 1);
         row_ptr.push(0);
         let mut len = 0;
@@ -677,6 +674,28 @@ impl Csr {
         cols.truncate(len);
         Self {
             row_ptr,
+            col_idx: cols,
+        }
+    }
+
+    /// From `(row, col)` pairs in any order: the counting sort by row alone (each row's
+    /// columns in the order given, repeats kept).
+    fn buckets(n: usize, pairs: &[(usize, usize)]) -> Self {
+        let mut start = vec![0usize; n + 1];
+        for &(r, _) in pairs {
+            start[r + 1] += 1;
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut cols = vec![0usize; pairs.len()];
+        for &(r, c) in pairs {
+            cols[next[r]] = c;
+            next[r] += 1;
+        }
+        Self {
+            row_ptr: start,
             col_idx: cols,
         }
     }
