@@ -1750,6 +1750,35 @@ mod tests {
         }
     }
 
+    /// The three levels of checks: the same numeric factorization (the same solution bits
+    /// and inertia), with the test solve and the contraction estimate made only where asked
+    /// (NaN otherwise); a solve with the unchecked factorization still reports its own
+    /// backward error.
+    #[test]
+    fn check_levels_share_one_factorization() {
+        let s = random_sym(200, 8, 4242, |_, r| r.uniform(-1.0, 1.0));
+        let pattern = SymmetricPattern::new(s.n, &s.entries).expect("pattern");
+        let proven = LbltFactor::factorize(&pattern, &s.values).expect("proven");
+        let unproven = LbltFactor::factorize_unproven(&pattern, &s.values).expect("unproven");
+        let bare = LbltFactor::factorize_for_solve(&pattern, &s.values).expect("for solve");
+        assert!(proven.backward_error() < 1e-12 && proven.contraction() < CONTRACTION_TOL);
+        assert!(unproven.backward_error() < 1e-12 && unproven.contraction().is_nan());
+        assert!(bare.backward_error().is_nan() && bare.contraction().is_nan());
+        assert_eq!(proven.inertia(), bare.inertia());
+        assert_eq!(proven.inertia(), unproven.inertia());
+        let mut rng = XorShift64::new(7);
+        let b: Vec<f64> = (0..s.n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let solve = |f: &LbltFactor| {
+            let mut x = b.clone();
+            let berr = f.solve_in_place(&mut x).expect("solve");
+            (x, berr)
+        };
+        let (x_proven, _) = solve(&proven);
+        let (x_bare, berr) = solve(&bare);
+        assert!(berr < 1e-12, "backward error {berr:e}");
+        assert_eq!(x_proven, x_bare);
+    }
+
     /// Reconstructs `P K̃ Pᵀ` and `L B Lᵀ` densely from faer's raw output, to confirm the
     /// conventions: `subdiag[j] != 0` ⇒ 2×2 block on (j, j+1); rows of the off-diagonal part
     /// of a supernode are in pre-intranode-pivoting coordinates (mapped through the inverse
