@@ -153,7 +153,7 @@
 
 pub mod abd;
 pub mod collocation;
-mod dense;
+pub(crate) mod dense;
 mod error;
 pub mod linear;
 pub mod mesh;

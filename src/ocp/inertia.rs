@@ -60,6 +60,8 @@
 
 use std::sync::Arc;
 
+use crate::bvp::dense::abs_max;
+
 use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::linalg::cholesky::lblt::factor::LbltParams;
 use faer::perm::PermRef;
@@ -1076,14 +1078,15 @@ impl LbltFactor {
                 let ncols = v.ncols();
                 for j in 0..ncols {
                     let below = v.col(j).subrows(j + 1, v.nrows() - j - 1);
-                    let (m, finite) = match below.try_as_col_major() {
-                        Some(c) => max_abs_and_finite(c.as_slice()),
+                    // The largest magnitude, and NaN exactly when an entry is not finite.
+                    let (m, bad) = match below.try_as_col_major() {
+                        Some(c) => abs_max(c.as_slice()),
                         None => {
                             let c: Vec<f64> = below.iter().copied().collect();
-                            max_abs_and_finite(&c)
+                            abs_max(&c)
                         }
                     };
-                    if !finite {
+                    if bad.is_nan() {
                         first_bad.get_or_insert(start + j);
                     }
                     max_abs_l = max_abs_l.max(m);
@@ -1433,29 +1436,6 @@ impl LbltFactor {
         }
         Ok((berr, steps))
     }
-}
-
-/// The largest magnitude of the finite entries of `x`, and whether all are finite: with four
-/// running results, so that the loop vectorizes (`f64::max` in a fold does not; `a > m`
-/// ignores a NaN as `f64::max` does, and `0 · x` is `±0` for every finite `x`, NaN otherwise).
-fn max_abs_and_finite(x: &[f64]) -> (f64, bool) {
-    let mut m = [0.0f64; 4];
-    let mut z = [0.0f64; 4];
-    let mut chunks = x.chunks_exact(4);
-    for c in &mut chunks {
-        for k in 0..4 {
-            let a = c[k].abs();
-            m[k] = if a > m[k] { a } else { m[k] };
-            z[k] += c[k] * 0.0;
-        }
-    }
-    for (k, &v) in chunks.remainder().iter().enumerate() {
-        let a = v.abs();
-        m[k] = if a > m[k] { a } else { m[k] };
-        z[k] += v * 0.0;
-    }
-    let top = m[0].max(m[1]).max(m[2].max(m[3]));
-    (top, (z[0] + z[1] + z[2] + z[3]) == 0.0)
 }
 
 /// What [`LbltFactor::factorize_checked`] verifies after the numeric factorization.
