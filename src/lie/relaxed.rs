@@ -63,8 +63,10 @@ pub const RELAXED_INTERVALS: usize = 100;
 /// ([`super::collapse::along_relaxed`]), whose accuracy does not hinge on this.
 pub const RELAXED_TOLERANCE: f64 = 1e-8;
 
-/// Iteration limit of the relaxed SQP.
-pub const RELAXED_MAX_ITERATIONS: usize = 200;
+/// Iteration limit of the relaxed SQP. It runs only for the evidence of a stop. 200 left the
+/// corpus problem samples-051 (η = 0, a sampled desired path) without a relaxed minimum: its
+/// two levels converge in 288 and 678 iterations.
+pub const RELAXED_MAX_ITERATIONS: usize = 1000;
 
 /// The relaxed form of a model's problem (module docs).
 pub struct RelaxedOcp<'a, M: Model> {
