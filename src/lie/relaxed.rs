@@ -65,7 +65,7 @@ pub const RELAXED_TOLERANCE: f64 = 1e-8;
 
 /// Iteration limit of the relaxed SQP. It runs only for the evidence of a stop. 200 left the
 /// corpus problem samples-051 (η = 0, a sampled desired path) without a relaxed minimum: its
-/// two levels converge in 288 and 678 iterations.
+/// two levels needed 288 and 678 iterations in a probe.
 pub const RELAXED_MAX_ITERATIONS: usize = 1000;
 
 /// The relaxed form of a model's problem (module docs).
