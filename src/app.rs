@@ -27,7 +27,8 @@
 //! status says `partial: <stage, parameter value, reason>` and its trajectory goes to
 //! `trajectory.partial.csv` (and `.npy`), and, when its evidence shows the problem's infimum
 //! approached as `ξ → 0`, the ε-optimal control to `trajectory.infimum.csv`
-//! ([`lie::INFIMUM_FILE`]); a solution that fails its a-posteriori checks
+//! ([`lie::INFIMUM_FILE`]; also for a start that fails on every route, where the direct
+//! method's minimum is that evidence); a solution that fails its a-posteriori checks
 //! ([`crate::lie::verify`]) has status `unverified: <checks>` and goes to
 //! `trajectory.unverified.csv` (and `.npy`). Figures are drawn for verified solutions only.
 
@@ -462,41 +463,53 @@ pub fn run_case(
                 "stage '{stage}' stopped{at}: {reason}"
             )));
             write_case_outputs(out, sub, &partial, name, (Outputs::Partial, output), events)?;
-            match lie::infimum_csv(&partial.generic, output.points) {
-                Some(Ok((text, control))) => {
-                    let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
-                    events(AppEvent::Wrote(&path));
-                    s.extra
-                        .insert("infimum_trajectory".into(), lie::infimum_record(&control));
-                }
-                Some(Err(e)) => {
-                    s.extra.insert(
-                        "infimum_trajectory_error".into(),
-                        serde_json::json!(e.to_string()),
-                    );
-                }
-                None => {}
+            let (generic, found) = (&partial.generic, partial.generic.collapse.as_ref());
+            if let Some(text) =
+                lie::infimum_output(&generic.problem, found, output.points, &mut s.extra)
+            {
+                let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
+                events(AppEvent::Wrote(&path));
             }
             s
         }
-        Err(e) => CaseSummary {
-            name: name.to_string(),
-            eta: problem.weights.eta,
-            terminal_time: f64::NAN,
-            cost: f64::NAN,
-            max_abs_constraint: f64::NAN,
-            xi_norm_min: f64::NAN,
-            xi_norm_max: f64::NAN,
-            energy_drift: f64::NAN,
-            omega_b_error: f64::NAN,
-            max_residual: f64::NAN,
-            wall_seconds: clock.elapsed().as_secs_f64(),
-            status_code: StatusCode::Failed,
-            status: CaseStatus::Failed(e.to_string()).to_string(),
-            model: <crate::model::generated::So3 as crate::model::Model>::NAME.to_string(),
-            model_source_hash: crate::model::generated::SOURCE_HASH.to_string(),
-            ..Default::default()
-        },
+        Err(e) => {
+            let mut s = CaseSummary {
+                name: name.to_string(),
+                eta: problem.weights.eta,
+                terminal_time: f64::NAN,
+                cost: f64::NAN,
+                max_abs_constraint: f64::NAN,
+                xi_norm_min: f64::NAN,
+                xi_norm_max: f64::NAN,
+                energy_drift: f64::NAN,
+                omega_b_error: f64::NAN,
+                max_residual: f64::NAN,
+                wall_seconds: clock.elapsed().as_secs_f64(),
+                status_code: StatusCode::Failed,
+                status: CaseStatus::Failed(e.to_string()).to_string(),
+                model: <crate::model::generated::So3 as crate::model::Model>::NAME.to_string(),
+                model_source_hash: crate::model::generated::SOURCE_HASH.to_string(),
+                ..Default::default()
+            };
+            // A start that fails on every route, explained by the direct method's minimum:
+            // where the minimizing controls collapse, the ε-optimal control.
+            if let (
+                SolveError::Start {
+                    collapse: Some(found),
+                    ..
+                },
+                Ok(generic),
+            ) = (&e, problem.to_generic())
+            {
+                if let Some(text) =
+                    lie::infimum_output(&generic, Some(found), output.points, &mut s.extra)
+                {
+                    let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
+                    events(AppEvent::Wrote(&path));
+                }
+            }
+            s
+        }
     };
     events(AppEvent::CaseFinished(&summary));
     Ok(summary)

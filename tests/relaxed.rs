@@ -306,3 +306,52 @@ fn a_tie_with_the_relaxed_minimum_still_writes_the_eps_optimal_control() {
     let check = corpus::infimum_check(&p.toml, &work, &out).expect("written");
     assert!(check.passed(), "{:?}", check.failures);
 }
+
+/// Corpus problem spiral-088 (fixed b): the analytic start fails on every route, so there is
+/// no partial solution; the direct method's minimum collapses (tests/routes.rs). The failed
+/// case still writes the ε-optimal control, the relaxed minimum's motion driven by a vanishing
+/// ξ (cost 85.363837 when measured, the relaxed minimum 85.3638370 on 200 intervals), and the
+/// corpus's independent check accepts it. The case stays failed: it has no extremal.
+#[test]
+fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
+    let file =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/corpus/hard/spiral_088_start_fails.toml");
+    let out = dir().join("spiral_088_out");
+    let _ = std::fs::remove_dir_all(&out);
+    let summary = suslov::app::run_solve(&file, &out, &mut |_| {}).expect("a run");
+    let case = &summary.cases[0];
+    assert_eq!(
+        case.status_code,
+        suslov::report::StatusCode::Failed,
+        "{}",
+        case.status
+    );
+    assert!(
+        case.status.contains("the minimizing controls collapse"),
+        "{}",
+        case.status
+    );
+    let record = &case.extra["infimum_trajectory"];
+    assert_eq!(record["file"], "trajectory.infimum.csv", "{:?}", case.extra);
+    assert!(
+        rel(record["cost"].as_f64().unwrap(), 85.363837) < 1e-7,
+        "{record}"
+    );
+    assert_eq!(record["eps"].as_f64(), Some(1e-6));
+    let toml = std::fs::read_to_string(&file).unwrap();
+    let check = corpus::infimum_check(&toml, file.parent().unwrap(), &out).expect("written");
+    assert!(check.passed(), "{:?}", check.failures);
+    assert!(check.equation_rows > 100, "{check:?}");
+    // Nothing else is written for a failed case but the problem and the summary (and the
+    // directory's own lock and manifest).
+    let mut written: Vec<String> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| !name.starts_with(".suslov"))
+        .collect();
+    written.sort();
+    assert_eq!(
+        written,
+        ["problem.toml", "summary.json", "trajectory.infimum.csv"]
+    );
+}

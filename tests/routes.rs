@@ -371,7 +371,10 @@ fn a_start_that_fails_on_every_route_lists_them_all() {
     let loaded = hard("paper_T100_fixed.toml");
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
     let err = lie::solve(&problem, &loaded.options, &mut |_| {}).expect_err("no route starts");
-    let LieSolveError::Start(message) = err else {
+    let LieSolveError::Start {
+        reason: message, ..
+    } = err
+    else {
         panic!("the start fails on every route: {err}");
     };
     for route in [
@@ -599,8 +602,10 @@ fn a_regular_minimum_no_branch_reaches_is_found_by_the_direct_start() {
 fn a_failed_start_is_explained_by_the_direct_minimum() {
     let loaded = hard("spiral_088_start_fails.toml");
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
-    let reason = match lie::solve(&problem, &loaded.options, &mut |_| {}) {
-        Err(LieSolveError::Start(reason)) => reason,
+    let (reason, found) = match lie::solve(&problem, &loaded.options, &mut |_| {}) {
+        Err(LieSolveError::Start { reason, collapse }) => {
+            (reason, collapse.expect("the direct minimum's evidence"))
+        }
         Err(other) => panic!("expected a failed start, got {other}"),
         Ok(_) => panic!("expected a failed start, got a solution"),
     };
@@ -632,6 +637,21 @@ fn a_failed_start_is_explained_by_the_direct_minimum() {
     assert!((cost - 85.363837).abs() < 1e-5, "{cost}");
     let relaxed = number_after("has its minimum at J = ");
     assert!((relaxed - 85.363837).abs() < 1e-5, "{relaxed}");
+    // The evidence the error carries says the same: compared with the discrete minimum, the
+    // relaxed minimum's control is the cheapest, and it is what `suslov solve` writes as the
+    // ε-optimal control (tests/relaxed.rs).
+    assert!(found.undercuts, "{found:?}");
+    assert_eq!(
+        found.least.motion,
+        suslov::lie::collapse::Motion::RelaxedMinimum
+    );
+    assert!(
+        (found.least.cost - 85.363837).abs() < 1e-5,
+        "{:?}",
+        found.least
+    );
+    assert!(found.compared_cost > found.least.cost, "{found:?}");
+    assert!(found.sentence.contains("the minimizing controls collapse"));
 }
 
 /// Corpus problem spiral-149 (fixed b): every continuation route stops; the direct start in

@@ -263,7 +263,7 @@ fn the_start_case_can_be_overridden() {
                 );
                 assert!((sol.terminal_time() - 9.84).abs() < 0.01);
             }
-            Err(SolveError::Start(msg)) => {
+            Err(SolveError::Start { reason: msg, .. }) => {
                 assert_ne!(strategy, StartStrategy::Desired, "{msg}");
                 assert!(msg.contains("did not converge"), "{msg}");
             }

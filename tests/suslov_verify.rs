@@ -357,7 +357,7 @@ fn a_failing_stage_says_so_in_its_stage_finished_event() {
             finished.push((r.name, r.outcome.clone()));
         }
     });
-    assert!(matches!(result, Err(SolveError::Start(_))));
+    assert!(matches!(result, Err(SolveError::Start { .. })));
     assert_eq!(finished.len(), 1);
     assert_eq!(finished[0].0, "start");
     assert!(!finished[0].1.is_completed());

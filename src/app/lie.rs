@@ -13,7 +13,8 @@
 //!
 //! A stage that stops writes `trajectory.partial.csv`, and, when its evidence shows the
 //! problem's infimum approached as `ξ → 0`, the ε-optimal control `trajectory.infimum.csv`
-//! ([`INFIMUM_FILE`]); a solution that fails its checks writes `trajectory.unverified.csv` (no
+//! ([`INFIMUM_FILE`]); so does a start that fails on every route when the direct method's
+//! minimum shows it; a solution that fails its checks writes `trajectory.unverified.csv` (no
 //! motion), as for so(3).
 
 use std::path::Path;
@@ -102,16 +103,18 @@ pub const INFIMUM_FILE: &str = "trajectory.infimum.csv";
 /// pointwise infimum than the discrete relaxed minimum (spiral-129).
 pub const INFIMUM_RTOL: f64 = 1e-6;
 
-/// The table of [`INFIMUM_FILE`] for the stop `partial` (`t`, `Ω`, `ξ`, `ξ̇` in the model's
-/// state names, `Ω_d`, on the output grid and the relaxed mesh's times) and the control it
-/// holds, or `None` when the stop's evidence does not call for one.
+/// The table of [`INFIMUM_FILE`] for a stop of `problem` with the evidence `found` (`t`, `Ω`,
+/// `ξ`, `ξ̇` in the model's state names, `Ω_d`, on the output grid and the relaxed mesh's
+/// times) and the control it holds, or `None` when the evidence does not call for one. The
+/// evidence is a partial solution's ([`LieSolution::collapse`]) or a failed start's
+/// ([`LieSolveError::Start`]).
 #[allow(clippy::type_complexity)]
 pub(super) fn infimum_csv<M: Model>(
-    partial: &LieSolution<M>,
+    problem: &lie::Problem<M>,
+    found: &lie::collapse::CollapseEvidence,
     points: usize,
 ) -> Option<Result<(String, lie::collapse::CollapsedControl), lie::collapse::CollapseError>> {
     use lie::collapse::{Motion, RelaxedOutcome};
-    let found = partial.collapse.as_ref()?;
     let relaxed = found
         .controls
         .iter()
@@ -122,7 +125,6 @@ pub(super) fn infimum_csv<M: Model>(
     let Some(RelaxedOutcome::Computed { times, omegas, .. }) = &found.relaxed else {
         return None;
     };
-    let problem = &partial.problem;
     let n = M::DIM;
     let at = super::output_times(problem.t0, relaxed.span, points, times);
     let rows = match lie::collapse::samples_control(problem, times, omegas, &at) {
@@ -144,6 +146,30 @@ pub(super) fn infimum_csv<M: Model>(
         }
     }
     Some(Ok((trajectory_csv(&names, &columns), *relaxed)))
+}
+
+/// [`INFIMUM_FILE`]'s text for a stop of `problem` with the evidence `found`, when the
+/// evidence calls for one ([`infimum_csv`]); records the control in `extra`
+/// (`infimum_trajectory`), or why it could not be computed (`infimum_trajectory_error`).
+pub(super) fn infimum_output<M: Model>(
+    problem: &lie::Problem<M>,
+    found: Option<&lie::collapse::CollapseEvidence>,
+    points: usize,
+    extra: &mut serde_json::Map<String, serde_json::Value>,
+) -> Option<String> {
+    match infimum_csv(problem, found?, points)? {
+        Ok((text, control)) => {
+            extra.insert("infimum_trajectory".into(), infimum_record(&control));
+            Some(text)
+        }
+        Err(e) => {
+            extra.insert(
+                "infimum_trajectory_error".into(),
+                serde_json::json!(e.to_string()),
+            );
+            None
+        }
+    }
 }
 
 /// What `summary.json` records of a written [`INFIMUM_FILE`].
@@ -633,39 +659,46 @@ pub fn run_model_solve<M: Model>(
                 "collocation.partial.csv",
                 collocation_csv(&partial).as_bytes(),
             )?;
-            match infimum_csv(&partial, output.points) {
-                Some(Ok((text, control))) => {
-                    write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
-                    c.extra
-                        .insert("infimum_trajectory".into(), infimum_record(&control));
-                }
-                Some(Err(e)) => {
-                    c.extra.insert(
-                        "infimum_trajectory_error".into(),
-                        serde_json::json!(e.to_string()),
-                    );
-                }
-                None => {}
+            let found = partial.collapse.as_ref();
+            if let Some(text) = infimum_output(&partial.problem, found, output.points, &mut c.extra)
+            {
+                write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
             }
             c
         }
-        Err(e) => CaseSummary {
-            name: name.clone(),
-            eta: f64::NAN,
-            terminal_time: f64::NAN,
-            cost: f64::NAN,
-            max_abs_constraint: f64::NAN,
-            xi_norm_min: f64::NAN,
-            xi_norm_max: f64::NAN,
-            energy_drift: f64::NAN,
-            omega_b_error: f64::NAN,
-            max_residual: f64::NAN,
-            status_code: report::StatusCode::Failed,
-            status: CaseStatus::Failed(e.to_string()).to_string(),
-            model: M::NAME.to_string(),
-            model_source_hash: crate::model::source_hash_of(M::NAME).to_string(),
-            ..Default::default()
-        },
+        Err(e) => {
+            let mut c = CaseSummary {
+                name: name.clone(),
+                eta: f64::NAN,
+                terminal_time: f64::NAN,
+                cost: f64::NAN,
+                max_abs_constraint: f64::NAN,
+                xi_norm_min: f64::NAN,
+                xi_norm_max: f64::NAN,
+                energy_drift: f64::NAN,
+                omega_b_error: f64::NAN,
+                max_residual: f64::NAN,
+                status_code: report::StatusCode::Failed,
+                status: CaseStatus::Failed(e.to_string()).to_string(),
+                model: M::NAME.to_string(),
+                model_source_hash: crate::model::source_hash_of(M::NAME).to_string(),
+                ..Default::default()
+            };
+            // A start that fails on every route, explained by the direct method's minimum:
+            // where the minimizing controls collapse, the ε-optimal control.
+            if let LieSolveError::Start {
+                collapse: Some(found),
+                ..
+            } = &e
+            {
+                if let Some(text) =
+                    infimum_output(&problem, Some(found), output.points, &mut c.extra)
+                {
+                    write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
+                }
+            }
+            c
+        }
     };
     case.wall_seconds = clock.elapsed().as_secs_f64();
     case.input = Some(resolved.to_json());

@@ -536,9 +536,17 @@ pub enum LieSolveError<M: Model> {
         /// What is missing.
         what: String,
     },
-    /// No admissible analytic start could be built.
-    #[error("cannot build the analytic start: {0}")]
-    Start(String),
+    /// No admissible analytic start could be built, on any route tried.
+    #[error("cannot build the analytic start: {reason}")]
+    Start {
+        /// Why, with every route tried.
+        reason: String,
+        /// For a fixed terminal time, the direct method's minimum as evidence
+        /// ([`super::collapse`]): the controls with a vanishing `ξ` compared with it, among
+        /// them the relaxed minimum's, the problem's ε-optimal control where the minimizing
+        /// controls collapse. `None` where the direct method did not run.
+        collapse: Option<Box<super::collapse::CollapseEvidence>>,
+    },
     /// A stage did not reach its target; `partial` holds the last converged point.
     #[error(
         "stage '{stage}' stopped{}: {reason}",
@@ -577,6 +585,16 @@ pub fn where_stopped(parameter: &str, reached: f64, target: f64) -> String {
         String::new()
     } else {
         format!(" at {parameter} = {reached} (target {target})")
+    }
+}
+
+impl<M: Model> LieSolveError<M> {
+    /// A failed start without evidence.
+    pub fn start(reason: impl Into<String>) -> Self {
+        Self::Start {
+            reason: reason.into(),
+            collapse: None,
+        }
     }
 }
 
@@ -712,10 +730,10 @@ fn choose_start<M: Model>(
             b_p,
             super::problem::ENERGY_REL_TOL,
         )
-        .map_err(|e| LieSolveError::Start(e.to_string()))?;
+        .map_err(|e| LieSolveError::start(e.to_string()))?;
         let r = check_properties(problem, &seg, (a, b_p), samples);
         if !admissible(&r) {
-            return Err(LieSolveError::Start(format!(
+            return Err(LieSolveError::start(format!(
                 "the projected segment from omega_a to omega_b violates Property 3 \
                  (min |I Om' - ad*_Om I Om| = {:e} at t = {}): along it the free motion \
                  needs no constraint force; give a desired path instead",
@@ -743,7 +761,7 @@ fn choose_start<M: Model>(
                     .iter()
                     .find(|w| w.role == HomotopyRole::Tracking)
                     .map_or("tracking weight", |w| w.name);
-                return Err(LieSolveError::Start(format!(
+                return Err(LieSolveError::start(format!(
                     "a start from the desired path needs {name} > 0 (with {name} = 0 the \
                      desired path is not part of the cost); use the segment or auto start"
                 )));
@@ -779,7 +797,7 @@ fn choose_start<M: Model>(
                     return Ok((path.clone(), choice(BENT_DESIRED, case)));
                 }
             }
-            return Err(LieSolveError::Start(format!(
+            return Err(LieSolveError::start(format!(
                 "the projected desired path violates Property 1 or 3 on [a, b_p] \
                  (|Omega_p(a) - Omega_a| = {:e}, |Omega_p(b_p) - Omega_b| = {:e}, \
                  min |I Om' - ad*_Om I Om| = {:e}), and bent to the end points {}; use the \
@@ -1564,7 +1582,7 @@ fn constraint_free<M: Model>(problem: &Problem<M>) -> Result<Problem<M>, LieSolv
         base.set_weight(c.index, 0.0);
     }
     base.omega_b = problem.level_set().project(&problem.omega_b).map_err(|e| {
-        LieSolveError::Start(format!(
+        LieSolveError::start(format!(
             "cannot project omega_b onto the energy level set of omega_a, where the start \
              (constraint value 0) must end: {e}"
         ))
@@ -1700,7 +1718,7 @@ fn solve_cold<M: Model>(
         && matches!(problem.terminal, TerminalTime::Fixed(_))
         && matches!(
             &first,
-            LieSolveError::StageFailed { .. } | LieSolveError::Start(_)
+            LieSolveError::StageFailed { .. } | LieSolveError::Start { .. }
         );
     // The cheapest minimum of the direct start that the BVP could not take up.
     let mut direct_minimum: Option<Box<DirectStart>> = None;
@@ -1824,29 +1842,27 @@ fn solve_cold<M: Model>(
                 partial,
             }
         }
-        LieSolveError::Start(mut reason) => {
+        LieSolveError::Start { mut reason, .. } => {
             // No partial solution to compare with: the direct start's minimum is the evidence.
-            if let Some(found) = direct_minimum
+            let mut collapse = None;
+            if let Some((found, evidence)) = direct_minimum
                 .as_deref()
                 .filter(|_| evidence == Evidence::Collapse && !options.stopped())
                 .map(|d| direct_finding(problem, d))
             {
                 reason.push_str("; ");
                 reason.push_str(&found);
+                collapse = evidence.map(Box::new);
             }
             let tried: Vec<String> = routes[1..]
                 .iter()
                 .map(|r| format!("{}: {}", r.route, r.stopped.as_deref().unwrap_or("solved")))
                 .collect();
-            if tried.is_empty() {
-                // `solver.max_routes = 1`, or no alternative applies.
-                LieSolveError::Start(reason)
-            } else {
-                LieSolveError::Start(format!(
-                    "{reason}; other routes tried: {}",
-                    tried.join("; ")
-                ))
+            if !tried.is_empty() {
+                reason = format!("{reason}; other routes tried: {}", tried.join("; "));
             }
+            // Without routes: `solver.max_routes = 1`, or no alternative applies.
+            LieSolveError::Start { reason, collapse }
         }
         other => other,
     })
@@ -1906,7 +1922,7 @@ pub fn alternatives<M: Model>(
     let finer = route("finer mesh", None, StageOrder::Sequential, 1.0, 4);
     let joint = route("joint weights", None, StageOrder::Joint, 1.0, 1);
     match error {
-        LieSolveError::Start(_) | LieSolveError::Bvp(_) => {
+        LieSolveError::Start { .. } | LieSolveError::Bvp(_) => {
             let mut r = Vec::new();
             if options.start == StartStrategy::Auto {
                 // With tracking: the full tracking weight from the start, as the paper's third
@@ -2092,9 +2108,14 @@ fn direct_route<M: Model>(
 /// the relaxed minimum's ([`super::collapse::along_relaxed`]), both
 /// re-integrated. When the cheaper costs no more than the minimum itself, the minimizing
 /// controls collapse (the infimum is approached as `ξ → 0`); otherwise the minimum is a
-/// regular one the BVP does not converge from.
-fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
-    use super::collapse::{self, Motion, RelaxedOutcome};
+/// regular one the BVP does not converge from. Returns the finding in words and, when a
+/// control was evaluated, the evidence (its `undercuts` is the collapse: the cheapest control
+/// costs no more than the minimum, within the minimum's discretization).
+fn direct_finding<M: Model>(
+    problem: &Problem<M>,
+    d: &DirectStart,
+) -> (String, Option<super::collapse::CollapseEvidence>) {
+    use super::collapse::{self, CollapseEvidence, Motion, RelaxedOutcome};
     let omegas = d.omegas::<M>();
     let along_direct = collapse::along_samples(
         problem,
@@ -2113,9 +2134,11 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
         .into_iter()
         .chain(along_relaxed)
         .collect();
-    let mut finding = match collapse::cheapest(&controls) {
-        // The discrete cost is a quadrature on the direct mesh: a relative 1e-3 for its error.
-        Some(c) if c.cost <= d.cost * (1.0 + 1e-3) => format!(
+    let least = collapse::cheapest(&controls);
+    // The discrete cost is a quadrature on the direct mesh: a relative 1e-3 for its error.
+    let collapses = least.is_some_and(|c| c.cost <= d.cost * (1.0 + 1e-3));
+    let mut finding = match least {
+        Some(c) if collapses => format!(
             "{head}, and an admissible control with |xi| = {:.0e} along {} costs J = {:.6} \
              (re-integrated to within {:.1e}): the minimizing controls collapse, the infimum is \
              approached as xi -> 0, where the optimality system is singular",
@@ -2137,7 +2160,7 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
     };
     if let RelaxedOutcome::Computed {
         intervals, costs, ..
-    } = relaxed
+    } = &relaxed
     {
         finding.push_str(&format!(
             "; the relaxed problem (the limit xi -> 0) has its minimum at J = {:.8} on {} \
@@ -2145,7 +2168,17 @@ fn direct_finding<M: Model>(problem: &Problem<M>, d: &DirectStart) -> String {
             costs[1], intervals[1], costs[0], intervals[0]
         ));
     }
-    finding
+    let found = least.map(|least| CollapseEvidence {
+        controls,
+        least,
+        compared_cost: d.cost,
+        compared_with: "the direct method's minimum of the transcribed problem",
+        undercuts: collapses,
+        relaxed: Some(relaxed),
+        no_optimal_time: false,
+        sentence: finding.clone(),
+    });
+    (finding, found)
 }
 
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the
@@ -2631,7 +2664,7 @@ fn warm_solve<M: Model>(
     origin: WarmOrigin,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
-    let bad = |why: String| LieSolveError::Start(format!("the warm start: {why}"));
+    let bad = |why: String| LieSolveError::start(format!("the warm start: {why}"));
     let (times, n) = (&warm.times, M::N_STATE);
     if times.len() < 2 || warm.states.len() != times.len() * n {
         return Err(bad(format!(
@@ -2925,7 +2958,7 @@ fn solve_route<M: Model>(
         });
     });
     if let Some(t) = bad {
-        return Err(LieSolveError::Start(format!(
+        return Err(LieSolveError::start(format!(
             "the singular control xi_p is undefined at t = {t} (Property 3 fails there)"
         )));
     }
@@ -2987,7 +3020,7 @@ fn solve_route<M: Model>(
             reason: reason.clone(),
         };
         events(&Event::StageFinished(&report));
-        return Err(LieSolveError::Start(reason));
+        return Err(LieSolveError::start(reason));
     }
     events(&Event::StageFinished(&report));
     let mut h = Homotopy {

@@ -67,9 +67,15 @@ pub enum SolveError {
     /// The problem is invalid.
     #[error("invalid problem: {0}")]
     Invalid(#[from] ProblemError),
-    /// No admissible analytic start could be built.
-    #[error("cannot build the analytic start: {0}")]
-    Start(String),
+    /// No admissible analytic start could be built, on any route tried.
+    #[error("cannot build the analytic start: {reason}")]
+    Start {
+        /// Why, with every route tried.
+        reason: String,
+        /// The direct method's minimum as evidence, where it ran (the generic layer's
+        /// [`LieSolveError::Start`]).
+        collapse: Option<Box<crate::lie::collapse::CollapseEvidence>>,
+    },
     /// A stage did not reach its target; `partial` holds the last converged point.
     #[error(
         "stage '{stage}' stopped{}: {reason}",
@@ -121,9 +127,10 @@ pub fn solve(
     events: &mut dyn FnMut(&Event),
 ) -> Result<SuslovSolution, SolveError> {
     problem.validate()?;
-    let generic = problem
-        .to_generic()
-        .map_err(|e| SolveError::Start(format!("the problem as a generic so3 problem: {e}")))?;
+    let generic = problem.to_generic().map_err(|e| SolveError::Start {
+        reason: format!("the problem as a generic so3 problem: {e}"),
+        collapse: None,
+    })?;
     match lie::solve(&generic, options, events) {
         Ok(sol) => Ok(SuslovSolution::from_generic(problem, sol)),
         Err(LieSolveError::StageFailed {
@@ -141,8 +148,13 @@ pub fn solve(
             reason,
             partial: Box::new(SuslovSolution::from_generic(problem, *partial)),
         }),
-        Err(LieSolveError::Start(reason)) => Err(SolveError::Start(reason)),
+        Err(LieSolveError::Start { reason, collapse }) => {
+            Err(SolveError::Start { reason, collapse })
+        }
         Err(LieSolveError::Bvp(e)) => Err(SolveError::Bvp(e)),
-        Err(other) => Err(SolveError::Start(other.to_string())),
+        Err(other) => Err(SolveError::Start {
+            reason: other.to_string(),
+            collapse: None,
+        }),
     }
 }
