@@ -492,7 +492,7 @@ pub fn run_case(
                 ..Default::default()
             };
             // A start that fails on every route, explained by the direct method's minimum:
-            // where the minimizing controls collapse, the ε-optimal control.
+            // that evidence, and where the minimizing controls collapse, the ε-optimal control.
             if let (
                 SolveError::Start {
                     collapse: Some(found),
@@ -501,6 +501,7 @@ pub fn run_case(
                 Ok(generic),
             ) = (&e, problem.to_generic())
             {
+                s.extra.insert("collapse".into(), serde_json::json!(found));
                 if let Some(text) =
                     lie::infimum_output(&generic, Some(found), output.points, &mut s.extra)
                 {

@@ -331,6 +331,10 @@ fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
         "{}",
         case.status
     );
+    // The evidence, as a stop records it.
+    let found = &case.extra["collapse"];
+    assert_eq!(found["undercuts"], true, "{found}");
+    assert_eq!(found["least"]["motion"], "relaxed_minimum", "{found}");
     let record = &case.extra["infimum_trajectory"];
     assert_eq!(record["file"], "trajectory.infimum.csv", "{:?}", case.extra);
     assert!(

@@ -685,12 +685,13 @@ pub fn run_model_solve<M: Model>(
                 ..Default::default()
             };
             // A start that fails on every route, explained by the direct method's minimum:
-            // where the minimizing controls collapse, the ε-optimal control.
+            // that evidence, and where the minimizing controls collapse, the ε-optimal control.
             if let LieSolveError::Start {
                 collapse: Some(found),
                 ..
             } = &e
             {
+                c.extra.insert("collapse".into(), serde_json::json!(found));
                 if let Some(text) =
                     infimum_output(&problem, Some(found), output.points, &mut c.extra)
                 {
