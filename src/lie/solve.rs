@@ -246,6 +246,24 @@ pub const FIXED_FROM_ABOVE: &str = "fixed weights from above";
 /// β/100 and β/10 from either path, and the desired start solves at `β_m = β`.
 pub const BETA_M_AT_BETA: &str = "start at the target beta";
 
+/// The name of the route that starts at a shorter horizon when the start fails
+/// ([`HORIZON_FACTORS`], the first that gets through): the analytic start and the weight
+/// stages at that fraction of `b − a`, then, for a fixed `b`, `b − a` continued geometrically
+/// to the problem's with the target weights (for a free `b`, the same fraction of the guess
+/// `b_p − a`: the free-time homotopy finds `b`). Issue #12's hard cases on the paper's data,
+/// its desired path held for 90 time units after the spiral (measured):
+/// - `paper_T100_fixed.toml` (`b = 100`): every start at `b = 100` fails, its Newton matrix
+///   singular; at `b = 25` the default route solves it, and the continuation reaches
+///   `b = 100`, cost 33.0217089666 (the same from `b = 50`; from `b = 12.5` it stops at
+///   93.8, out of steps);
+/// - `paper_T100_free.toml` (guess 100): the free-time start stops at guess 25; at 12.5 it
+///   ends at the paper's own solution, `b = 11.3596162034`, `J = 15.39476077134`.
+pub const SHORTER_HORIZON: &str = "shorter horizon";
+
+/// The fractions of `b − a` (or of the guess's) from which [`SHORTER_HORIZON`] starts, in
+/// turn.
+pub const HORIZON_FACTORS: [f64; 2] = [0.25, 0.125];
+
 /// How many times its target a weight of role `Fixed` starts at on [`FIXED_FROM_ABOVE`].
 pub const FIXED_FROM_ABOVE_FACTOR: f64 = 100.0;
 
@@ -286,6 +304,10 @@ pub struct Route {
     /// `β_m` is the target β itself: the start solves the problem at its own β, and there is
     /// no β stage ([`BETA_M_AT_BETA`]).
     pub beta_m_at_beta: bool,
+    /// The route solves the problem with `b − a` (fixed) or its guess (free) this many times
+    /// the problem's first (and, if that stops, at the smaller [`HORIZON_FACTORS`]); a fixed
+    /// `b − a` is then continued to the problem's ([`SHORTER_HORIZON`]). 1: the problem's own.
+    pub horizon_factor: f64,
 }
 
 impl Route {
@@ -298,6 +320,7 @@ impl Route {
         mesh_factor: 1,
         fixed_factor: 1.0,
         beta_m_at_beta: false,
+        horizon_factor: 1.0,
     };
 }
 
@@ -1897,6 +1920,7 @@ pub fn alternatives<M: Model>(
         mesh_factor,
         fixed_factor: 1.0,
         beta_m_at_beta: false,
+        horizon_factor: 1.0,
     };
     let start_route = |name, strategy| route(name, Some(strategy), StageOrder::Sequential, 1.0, 1);
     let desired = start_route("desired start", StartStrategy::Desired);
@@ -1944,6 +1968,10 @@ pub fn alternatives<M: Model>(
                     1.0,
                     1,
                 )
+            });
+            r.push(Route {
+                horizon_factor: HORIZON_FACTORS[0],
+                ..route(SHORTER_HORIZON, None, StageOrder::Sequential, 1.0, 1)
             });
             r.push(route(
                 "smaller beta_m",
@@ -2840,6 +2868,67 @@ fn horizon_homotopy<'p, M: Model>(
     }
 }
 
+/// [`SHORTER_HORIZON`]: `route` (with the problem's own horizon) on `problem` with
+/// `b − a`, or its guess, `route.horizon_factor` times the problem's, and if that stops at each
+/// smaller factor of [`HORIZON_FACTORS`] in turn; for a fixed `b`, `b − a` is then continued to
+/// the problem's ([`Homotopy::horizon_stage`]) and the solution polished and checked. A stop
+/// is reported as the route's failed start, with why each factor stopped (its partial
+/// solution, at another horizon, is no evidence about the problem's own).
+fn shorter_horizon<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    route: &Route,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let span = problem.terminal.initial() - problem.t0;
+    let own = Route {
+        horizon_factor: 1.0,
+        ..*route
+    };
+    let mut stops = Vec::new();
+    let factors = std::iter::once(route.horizon_factor).chain(
+        HORIZON_FACTORS
+            .into_iter()
+            .filter(|f| *f < route.horizon_factor),
+    );
+    for factor in factors {
+        if options.stopped() {
+            break;
+        }
+        let short_span = factor * span;
+        let mut short = problem.clone();
+        short.terminal = match problem.terminal {
+            TerminalTime::Fixed(_) => TerminalTime::Fixed(problem.t0 + short_span),
+            TerminalTime::Free { .. } => TerminalTime::Free {
+                guess: problem.t0 + short_span,
+            },
+        };
+        let attempt = solve_route(&short, options, &own, events).and_then(|mut sol| {
+            match problem.terminal {
+                TerminalTime::Free { .. } => {
+                    // The same problem from another guess: the solution is the problem's.
+                    sol.problem.terminal = problem.terminal;
+                    Ok(sol)
+                }
+                TerminalTime::Fixed(_) => {
+                    let mut h = horizon_homotopy(problem, options, &sol);
+                    h.horizon_stage(span, options)?;
+                    h.finish(options, &|tol| bvp_options(options, tol), events)
+                }
+            }
+        });
+        match attempt {
+            Ok(sol) => return Ok(sol),
+            Err(e) => stops.push(format!("from b - a = {short_span}: {e}")),
+        }
+    }
+    Err(LieSolveError::start(format!(
+        "the shorter horizons (the problem's b - a = {span} times {}): {}",
+        route.horizon_factor,
+        stops.join("; ")
+    )))
+}
+
 /// How much tighter the `refine` stages solve a solution that failed its a-posteriori checks
 /// (in turn, until one passes them).
 pub const REFINE_FACTORS: [f64; 2] = [1e-1, 1e-2];
@@ -2851,6 +2940,9 @@ fn solve_route<M: Model>(
     route: &Route,
     events: &mut dyn FnMut(&Event),
 ) -> Result<LieSolution<M>, LieSolveError<M>> {
+    if route.horizon_factor != 1.0 {
+        return shorter_horizon(problem, options, route, events);
+    }
     let p = problem.params();
     let beta = one_with_role::<M>(HomotopyRole::Beta)?.ok_or_else(|| LieSolveError::Roles {
         model: M::NAME,

@@ -173,7 +173,10 @@ pub fn reintegrate_difference<M: Model>(sol: &LieSolution<M>) -> Result<Reintegr
 /// The windows of [`reintegrate_windowed`]: `[a, b]` cut at mesh nodes into consecutive
 /// windows, each ending at the first mesh node where the rotation angle `∫ |Ω| dt` since the
 /// window's start reaches `max_angle` (5-point Gauss–Legendre per mesh interval); physical
-/// times. One window when the whole motion turns by less than `max_angle`.
+/// times. One window when the whole motion turns by less than `max_angle`. A mesh interval
+/// that turns by more than `max_angle` by itself gets windows of its own, equal in time and
+/// as many as it turns by multiples of `max_angle` (rounded up), so that no window's
+/// amplification grows with the mesh's step.
 pub fn rotation_windows<M: Model>(sol: &LieSolution<M>, max_angle: f64) -> Vec<(f64, f64)> {
     let a = sol.problem.t0;
     let b = sol.terminal_time();
@@ -184,15 +187,44 @@ pub fn rotation_windows<M: Model>(sol: &LieSolution<M>, max_angle: f64) -> Vec<(
     let mut angle = 0.0;
     for (i, w) in mesh.windows(2).enumerate() {
         let h = w[1] - w[0];
+        let mut turn = 0.0;
         for (node, weight) in GAUSS5 {
             sol.bvp.eval_into(w[0] + node * h, &mut y);
-            angle += weight * h * sol.t_span * norm(&y[M::OMEGA]);
+            turn += weight * h * sol.t_span * norm(&y[M::OMEGA]);
         }
         let end = if i + 2 == mesh.len() {
             b
         } else {
             (a + w[1] * sol.t_span).min(b)
         };
+        // An interval that turns by more than `max_angle` on its own (a long, nearly steady
+        // stretch that the mesh spans in one step) is cut into equal windows inside it,
+        // restarted from the solution's interpolant, so that no window turns by much more.
+        if turn > max_angle {
+            if end > start && angle > 0.0 {
+                let node = (a + w[0] * sol.t_span).min(b);
+                if node > start {
+                    windows.push((start, node));
+                    start = node;
+                }
+            }
+            let pieces = (turn / max_angle).ceil();
+            let t_begin = start;
+            for k in 1..=(pieces as usize) {
+                let t = if k == pieces as usize {
+                    end
+                } else {
+                    t_begin + (end - t_begin) * k as f64 / pieces
+                };
+                if t > start {
+                    windows.push((start, t));
+                    start = t;
+                }
+            }
+            angle = 0.0;
+            continue;
+        }
+        angle += turn;
         if angle >= max_angle || i + 2 == mesh.len() {
             if end > start {
                 windows.push((start, end));
