@@ -379,6 +379,23 @@ impl SymmetricPattern {
             }
         }
         drop(diag_sum);
+        // The numeric pattern is built on a second thread while this one analyses the
+        // augmented pattern (they meet in the containment check).
+        std::thread::scope(|scope| {
+            let numeric = scope.spawn(|| numeric_pattern(n, entries));
+            Self::analyse_structure(n, entries, &has_diag, given_groups, numeric)
+        })
+    }
+
+    /// The structural part of [`Self::analyse_with`]: pivot groups, ordering, augmented
+    /// pattern and symbolic factorization, then the containment of `numeric`'s pattern.
+    fn analyse_structure(
+        n: usize,
+        entries: &[(usize, usize)],
+        has_diag: &[bool],
+        given_groups: Option<&[Vec<usize>]>,
+        numeric: std::thread::ScopedJoinHandle<'_, NumericPattern>,
+    ) -> Result<Self, InertiaError> {
         // Off-diagonal adjacency (both directions): sorted and deduplicated for the matching
         // and the compressed graph; given groups only need each row's neighbours
         // (`group_closed_pattern`), in any order.
@@ -412,7 +429,7 @@ impl SymmetricPattern {
         let partner = if given_groups.is_some() {
             vec![NONE; n]
         } else {
-            match_zero_diagonal(n, &adj, &has_diag)
+            match_zero_diagonal(n, &adj, has_diag)
         };
         let mut deferred = Vec::new();
         for i in 0..n {
@@ -523,16 +540,13 @@ impl SymmetricPattern {
         let aug = Csr::from_pairs(n, &upper);
         drop(upper);
         let (aug_col_ptr, aug_row_idx) = (aug.row_ptr, aug.col_idx);
-        // The user pattern and the diagonal (upper triangle, `(col, row)` pairs): the numeric
-        // pattern, contained in the augmented one.
-        let user: Vec<(usize, usize)> = entries
-            .iter()
-            .map(|&(r, c)| (r.max(c), r.min(c)))
-            .chain((0..n).map(|i| (i, i)))
-            .collect();
-        let compact = Csr::from_pairs(n, &user);
-        drop(user);
-        let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
+        let NumericParts {
+            col_ptr,
+            row_idx,
+            entry_pos,
+        } = numeric.join().map_err(|_| {
+            InertiaError::Symbolic("internal error: the numeric pattern's thread panicked".into())
+        })??;
         // Every column of the numeric pattern is contained in the augmented one (both sorted:
         // one merge per column).
         for c in 0..n {
@@ -544,19 +558,6 @@ impl SymmetricPattern {
                     )));
                 }
             }
-        }
-        let mut entry_pos = Vec::with_capacity(entries.len());
-        for &(row, col) in entries {
-            let (r, c) = (row.min(col), row.max(col));
-            // Present: `compact` holds every entry.
-            let k = row_idx[col_ptr[c]..col_ptr[c + 1]]
-                .binary_search(&r)
-                .map_err(|_| {
-                    InertiaError::Symbolic(format!(
-                        "internal error: entry ({row}, {col}) missing from the pattern"
-                    ))
-                })?;
-            entry_pos.push(col_ptr[c] + k);
         }
 
         let nnz_augmented = aug_row_idx.len();
@@ -640,6 +641,48 @@ impl SymmetricPattern {
 }
 
 const NONE: usize = usize::MAX;
+
+/// The numeric pattern of [`SymmetricPattern`] (its upper triangle as compressed columns) and
+/// the position in it of every entry, or why an entry is missing.
+type NumericPattern = Result<NumericParts, InertiaError>;
+
+/// The parts of a [`NumericPattern`].
+struct NumericParts {
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    entry_pos: Vec<usize>,
+}
+
+/// The user pattern and the diagonal (upper triangle, `(col, row)` pairs, sorted): the
+/// numeric pattern, and where each of `entries` is in it.
+fn numeric_pattern(n: usize, entries: &[(usize, usize)]) -> NumericPattern {
+    let user: Vec<(usize, usize)> = entries
+        .iter()
+        .map(|&(r, c)| (r.max(c), r.min(c)))
+        .chain((0..n).map(|i| (i, i)))
+        .collect();
+    let compact = Csr::from_pairs(n, &user);
+    drop(user);
+    let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
+    let mut entry_pos = Vec::with_capacity(entries.len());
+    for &(row, col) in entries {
+        let (r, c) = (row.min(col), row.max(col));
+        // Present: `compact` holds every entry.
+        let k = row_idx[col_ptr[c]..col_ptr[c + 1]]
+            .binary_search(&r)
+            .map_err(|_| {
+                InertiaError::Symbolic(format!(
+                    "internal error: entry ({row}, {col}) missing from the pattern"
+                ))
+            })?;
+        entry_pos.push(col_ptr[c] + k);
+    }
+    Ok(NumericParts {
+        col_ptr,
+        row_idx,
+        entry_pos,
+    })
+}
 
 /// Compressed rows, columns sorted and distinct in each row (also used as compressed columns
 /// of the transpose); from [`Csr::buckets`], in the order given and with repeats.

@@ -189,6 +189,23 @@ impl KktMatrix {
         values
     }
 
+    /// [`Self::values`] with every Hessian entry 0, without evaluating the Hessian (its entries
+    /// are the pattern's between the diagonal and the Jacobian's).
+    pub fn values_without_hessian(&self, diag: &[f64], a: &[Entry]) -> Vec<f64> {
+        let extra = if self.constraint_diagonal {
+            self.n_con
+        } else {
+            0
+        };
+        let n_hessian = self.entries.len() - diag.len() - a.len() - extra;
+        let mut values = Vec::with_capacity(self.entries.len());
+        values.extend_from_slice(diag);
+        values.resize(diag.len() + n_hessian, 0.0);
+        values.extend(a.iter().map(|e| e.2));
+        values.resize(self.entries.len(), 0.0);
+        values
+    }
+
     /// `values` with every entry in a row or column outside `kept` set to zero: the principal
     /// submatrix on `kept`, bordered by exactly zero rows (which a factorization deflates and
     /// counts as zero eigenvalues: `inertia = inertia(submatrix) + (0, 0, #removed)`), on the
@@ -266,9 +283,7 @@ pub fn least_squares_multipliers<P: OcpProblem + ?Sized>(
 ) -> Result<Vec<f64>, KktError> {
     let (nv, nc) = (tr.n_var(), tr.n_con());
     // [[I, Aᵀ], [A, 0]] [r; y] = [−∇J; 0]  ⇒  r = −∇J − Aᵀy with A r = 0.
-    let mut h = tr.lagrangian_hessian(v, &vec![0.0; nc]);
-    h.iter_mut().for_each(|e| e.2 = 0.0);
-    let values = kkt.values(&vec![1.0; nv], &h, &tr.jacobian(v));
+    let values = kkt.values_without_hessian(&vec![1.0; nv], &tr.jacobian(v));
     let mut rhs = vec![0.0; nv + nc];
     for (r, g) in rhs.iter_mut().zip(tr.gradient(v)) {
         *r = -g;
