@@ -359,3 +359,46 @@ fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
         ["problem.toml", "summary.json", "trajectory.infimum.csv"]
     );
 }
+
+/// The direct method's discrete minimum below every control with a vanishing ξ (corpus problem
+/// spiral-129, η = 0, fixed b, when measured: 0.544726 with min |ξ| 0.018, against the relaxed
+/// minimum's control 0.659168): a cheaper minimum may exist, so the relaxed control is not
+/// called ε-optimal. Within the direct mesh's quadrature (1e-3 relative) it is not cheaper.
+#[test]
+fn a_cheaper_direct_minimum_withholds_the_eps_optimal_claim() {
+    use suslov::lie::collapse::{CollapseEvidence, CollapsedControl, DIRECT_COST_RTOL};
+    let relaxed = CollapsedControl {
+        motion: Motion::RelaxedMinimum,
+        span: 14.937,
+        eps: 1e-6,
+        cost: 0.659168,
+        quadrature_error: 1e-12,
+        reintegration_error: 2.8e-10,
+    };
+    let evidence = CollapseEvidence {
+        controls: vec![relaxed],
+        least: relaxed,
+        compared_cost: 1.2297,
+        compared_with: "the last solution's control at the target weights",
+        undercuts: true,
+        relaxed: None,
+        no_optimal_time: false,
+        sentence: "a control costs less".into(),
+        cheaper_discrete: None,
+    };
+    let mut cheaper = evidence.clone();
+    cheaper.compare_direct(0.544726, 0.0177);
+    assert_eq!(cheaper.cheaper_discrete, Some(0.544726));
+    assert!(
+        cheaper.sentence.contains("the infimum is not established"),
+        "{}",
+        cheaper.sentence
+    );
+    // At the relaxed cost, or just inside the quadrature's tolerance: not cheaper.
+    for cost in [0.659168, 0.659168 / (1.0 + 0.9 * DIRECT_COST_RTOL)] {
+        let mut same = evidence.clone();
+        same.compare_direct(cost, 1e-3);
+        assert_eq!(same.cheaper_discrete, None, "{cost}");
+        assert_eq!(same.sentence, evidence.sentence);
+    }
+}

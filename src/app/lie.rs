@@ -93,7 +93,8 @@ fn trajectory_columns<M: Model>(
 /// The file of a stop's ε-optimal control: the relaxed minimum's motion driven by a vanishing
 /// `ξ` ([`lie::collapse::samples_control`]), written when the stop's evidence is undercut and
 /// that control is the cheapest of it, or within [`INFIMUM_RTOL`] of the cheapest (the
-/// problem's infimum is approached as `ξ → 0`).
+/// problem's infimum is approached as `ξ → 0`), and the direct method's minimum is not cheaper
+/// ([`lie::collapse::CollapseEvidence::cheaper_discrete`]).
 pub const INFIMUM_FILE: &str = "trajectory.infimum.csv";
 
 /// How far (relative) the relaxed minimum's control may cost above the cheapest control of a
@@ -115,6 +116,9 @@ pub(super) fn infimum_csv<M: Model>(
     points: usize,
 ) -> Option<Result<(String, lie::collapse::CollapsedControl), lie::collapse::CollapseError>> {
     use lie::collapse::{Motion, RelaxedOutcome};
+    if found.cheaper_discrete.is_some() {
+        return None;
+    }
     let relaxed = found
         .controls
         .iter()

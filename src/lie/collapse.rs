@@ -692,6 +692,35 @@ pub struct CollapseEvidence {
     pub no_optimal_time: bool,
     /// The finding in words.
     pub sentence: String,
+    /// The discrete cost of the direct method's minimum (fixed `b`), when it lies below every
+    /// control evaluated beyond its quadrature's error (a relative [`DIRECT_COST_RTOL`]): a
+    /// cheaper minimum may exist, regular or collapsing on some arcs only (docs/collapse.md,
+    /// "What is left"), so the cheapest control is not known to approach the infimum and is
+    /// not written as the ε-optimal one. `None` otherwise, or where the direct method did not
+    /// run.
+    pub cheaper_discrete: Option<f64>,
+}
+
+/// How far (relative) below the cheapest control with a vanishing `ξ` the direct method's
+/// discrete minimum must lie to count as cheaper ([`CollapseEvidence::cheaper_discrete`]): its
+/// cost is a quadrature on the direct mesh (100 or 200 intervals).
+pub const DIRECT_COST_RTOL: f64 = 1e-3;
+
+impl CollapseEvidence {
+    /// Record `direct_cost`, the discrete cost of the direct method's minimum (its smallest
+    /// `|ξ|` `min_xi`), when it is cheaper than every control evaluated
+    /// ([`Self::cheaper_discrete`]); the sentence then says so.
+    pub fn compare_direct(&mut self, direct_cost: f64, min_xi: f64) {
+        if direct_cost * (1.0 + DIRECT_COST_RTOL) < self.least.cost {
+            self.cheaper_discrete = Some(direct_cost);
+            self.sentence.push_str(&format!(
+                "; but the direct method's minimum of the transcribed problem costs {direct_cost:.6} \
+                 (min |xi| {min_xi:.2e}), less than every control with a vanishing xi: a cheaper \
+                 minimum may exist (regular, or collapsing on some arcs only), so the infimum is \
+                 not established"
+            ));
+        }
+    }
 }
 
 /// The controls for `problem` at its own constants: for a free terminal time the projected
@@ -803,6 +832,7 @@ fn evidence(
         relaxed,
         no_optimal_time,
         sentence,
+        cheaper_discrete: None,
     })
 }
 

@@ -1846,6 +1846,9 @@ fn solve_cold<M: Model>(
                     .zip(omegas.as_deref())
                     .map(|(d, o)| (d.warm.times.as_slice(), o));
                 partial.collapse = super::collapse::for_stop(problem, &partial, scan_least, direct);
+                if let (Some(found), Some(d)) = (partial.collapse.as_mut(), &direct_minimum) {
+                    found.compare_direct(d.cost, d.min_xi);
+                }
             }
             if let Some(found) = partial.collapse.as_ref().filter(|c| c.undercuts) {
                 reason.push_str("; ");
@@ -2164,7 +2167,7 @@ fn direct_finding<M: Model>(
         .collect();
     let least = collapse::cheapest(&controls);
     // The discrete cost is a quadrature on the direct mesh: a relative 1e-3 for its error.
-    let collapses = least.is_some_and(|c| c.cost <= d.cost * (1.0 + 1e-3));
+    let collapses = least.is_some_and(|c| c.cost <= d.cost * (1.0 + collapse::DIRECT_COST_RTOL));
     let mut finding = match least {
         Some(c) if collapses => format!(
             "{head}, and an admissible control with |xi| = {:.0e} along {} costs J = {:.6} \
@@ -2205,6 +2208,9 @@ fn direct_finding<M: Model>(
         relaxed: Some(relaxed),
         no_optimal_time: false,
         sentence: finding.clone(),
+        // A regular minimum (`!collapses`): the direct minimum is cheaper than every control
+        // with a vanishing ξ, beyond its quadrature (the test of `compare_direct`).
+        cheaper_discrete: (!collapses).then_some(d.cost),
     });
     (finding, found)
 }
