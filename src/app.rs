@@ -474,22 +474,14 @@ pub fn run_case(
         }
         Err(e) => {
             let mut s = CaseSummary {
-                name: name.to_string(),
                 eta: problem.weights.eta,
-                terminal_time: f64::NAN,
-                cost: f64::NAN,
-                max_abs_constraint: f64::NAN,
-                xi_norm_min: f64::NAN,
-                xi_norm_max: f64::NAN,
-                energy_drift: f64::NAN,
-                omega_b_error: f64::NAN,
-                max_residual: f64::NAN,
                 wall_seconds: clock.elapsed().as_secs_f64(),
-                status_code: StatusCode::Failed,
-                status: CaseStatus::Failed(e.to_string()).to_string(),
-                model: <crate::model::generated::So3 as crate::model::Model>::NAME.to_string(),
-                model_source_hash: crate::model::generated::SOURCE_HASH.to_string(),
-                ..Default::default()
+                ..CaseSummary::failed(
+                    name,
+                    &e.to_string(),
+                    <crate::model::generated::So3 as crate::model::Model>::NAME,
+                    crate::model::generated::SOURCE_HASH,
+                )
             };
             // A start that fails on every route, explained by the direct method's minimum:
             // that evidence, and where the minimizing controls collapse, the ε-optimal control.

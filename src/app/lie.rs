@@ -671,23 +671,12 @@ pub fn run_model_solve<M: Model>(
             c
         }
         Err(e) => {
-            let mut c = CaseSummary {
-                name: name.clone(),
-                eta: f64::NAN,
-                terminal_time: f64::NAN,
-                cost: f64::NAN,
-                max_abs_constraint: f64::NAN,
-                xi_norm_min: f64::NAN,
-                xi_norm_max: f64::NAN,
-                energy_drift: f64::NAN,
-                omega_b_error: f64::NAN,
-                max_residual: f64::NAN,
-                status_code: report::StatusCode::Failed,
-                status: CaseStatus::Failed(e.to_string()).to_string(),
-                model: M::NAME.to_string(),
-                model_source_hash: crate::model::source_hash_of(M::NAME).to_string(),
-                ..Default::default()
-            };
+            let mut c = CaseSummary::failed(
+                &name,
+                &e.to_string(),
+                M::NAME,
+                crate::model::source_hash_of(M::NAME),
+            );
             // A start that fails on every route, explained by the direct method's minimum:
             // that evidence, and where the minimizing controls collapse, the ε-optimal control.
             if let LieSolveError::Start {

@@ -199,6 +199,29 @@ impl CaseStatus {
 }
 
 impl CaseSummary {
+    /// A case that failed with `message` before any solution (no trajectory: every number
+    /// NaN), solved with `model` (its source hash `model_source_hash`).
+    pub fn failed(name: &str, message: &str, model: &str, model_source_hash: &str) -> Self {
+        let status = CaseStatus::Failed(message.to_string());
+        Self {
+            name: name.to_string(),
+            eta: f64::NAN,
+            terminal_time: f64::NAN,
+            cost: f64::NAN,
+            max_abs_constraint: f64::NAN,
+            xi_norm_min: f64::NAN,
+            xi_norm_max: f64::NAN,
+            energy_drift: f64::NAN,
+            omega_b_error: f64::NAN,
+            max_residual: f64::NAN,
+            status_code: status.code(),
+            status: status.to_string(),
+            model: model.to_string(),
+            model_source_hash: model_source_hash.to_string(),
+            ..Default::default()
+        }
+    }
+
     /// Sets `status` (the message) and `status_code` (its kind) together.
     pub fn set_status(&mut self, status: &CaseStatus) {
         self.status_code = status.code();
