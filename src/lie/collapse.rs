@@ -697,7 +697,8 @@ pub struct CollapseEvidence {
     /// cheaper minimum may exist, regular or collapsing on some arcs only (docs/collapse.md,
     /// "What is left"), so the cheapest control is not known to approach the infimum and is
     /// not written as the ε-optimal one. `None` otherwise, or where the direct method did not
-    /// run.
+    /// run (then absent from `summary.json`).
+    #[serde(skip_serializing_if = "Option::is_none")]
     pub cheaper_discrete: Option<f64>,
 }
 
