@@ -505,26 +505,47 @@ fn a_desired_path_that_misses_omega_b_is_bent_to_it_for_the_desired_start() {
     assert!(lie::verify_solution(&sol).verification.passed());
 }
 
-/// Corpus problem long-134 (fixed b − a = 44.7): the polish at 1e-8 meets the solver's error
-/// estimate on a mesh that does not resolve the motion well enough for the windowed
-/// re-integration check; the refine stage solves again at a 10 times tighter tolerance on a
-/// finer mesh, and that solution passes the checks at the requested tolerance.
+/// Corpus problem long-134 (fixed b − a = 44.7): until session 19 the polish at 1e-8 met the
+/// solver's error estimate on a mesh whose longest intervals turn by more than a radian, the
+/// windowed re-integration check (windows cut at mesh nodes only) failed, and the refine stage
+/// solved again at a 10 times tighter tolerance on a finer mesh. Since the check also cuts such
+/// intervals into windows of about a radian, the polished solution passes it at the requested
+/// tolerance and no refine stage runs.
 #[test]
-fn a_solution_that_fails_its_checks_is_refined_until_it_passes() {
+fn a_mesh_interval_that_turns_far_is_checked_in_windows_of_its_own() {
     let loaded = hard("long_134_refine.toml");
     let problem = loaded.problem.to_generic().expect("a valid so3 problem");
     let sol = lie::solve(&problem, &loaded.options, &mut |_| {}).expect("the default solves it");
     assert_eq!(solved_by(&sol), [("default", true)]);
     let names: Vec<&str> = sol.stages.iter().map(|s| s.name).collect();
-    assert_eq!(&names[names.len() - 2..], ["polish", "refine"], "{names:?}");
-    let (polish, refine) = (&sol.stages[names.len() - 2], &sol.stages[names.len() - 1]);
-    assert!(refine.outcome.is_completed());
-    assert!(refine.nodes > polish.nodes, "{polish:?} {refine:?}");
+    assert_eq!(names.last(), Some(&"polish"), "{names:?}");
     assert_eq!(
         sol.tolerance, loaded.options.tol,
         "judged at the requested tolerance"
     );
-    assert!(lie::verify_solution(&sol).verification.passed());
+    let verified = lie::verify_solution(&sol);
+    assert!(
+        verified.verification.passed(),
+        "{:?}",
+        verified.verification
+    );
+    // Some interval turns by more than a radian: the windows inside it are what changed.
+    let omega_max = sol
+        .bvp
+        .y
+        .chunks_exact(suslov::model::generated::N_STATE)
+        .map(|y| y[..3].iter().map(|v| v * v).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    let longest = sol
+        .bvp
+        .x
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0, f64::max)
+        * sol.t_span;
+    assert!(longest * omega_max > 1.0, "{longest} {omega_max}");
+    let windows = verified.reintegration.as_ref().unwrap().windows;
+    assert!(windows > sol.bvp.x.len() / 100, "{windows}");
 }
 
 /// Corpus problem issue12-124 (γ = 0, fixed b − a = 14.1): natural continuation of every route
