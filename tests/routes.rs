@@ -394,6 +394,26 @@ fn a_start_that_fails_on_every_route_lists_them_all() {
     }
 }
 
+/// The longest mesh step of `sol` in physical time and `max |Ω|` over its nodes: their product
+/// bounds how far one mesh interval turns.
+fn longest_step_and_fastest_turn(sol: &lie::LieSolution<suslov::model::so3::So3>) -> (f64, f64) {
+    use suslov::model::generated::{N_STATE, OMEGA};
+    let omega_max = sol
+        .bvp
+        .y
+        .chunks_exact(N_STATE)
+        .map(|y| y[OMEGA].iter().map(|v| v * v).sum::<f64>().sqrt())
+        .fold(0.0, f64::max);
+    let longest = sol
+        .bvp
+        .x
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .fold(0.0, f64::max)
+        * sol.t_span;
+    (longest, omega_max)
+}
+
 /// Issue #12's hard cases on the paper's data, its desired path held for 90 time units after
 /// the spiral: every start at b = 100 fails (its Newton matrix is singular), and the route
 /// from a shorter horizon solves both. Fixed b = 100: solved at b = 25, then b − a continued
@@ -426,19 +446,7 @@ fn a_long_horizon_is_solved_from_a_shorter_one() {
     // intervals turn by tens of radians.
     let windows =
         suslov::lie::verify::rotation_windows(&sol, lie::checks::REINTEGRATION_WINDOW_ANGLE);
-    let omega_max = sol
-        .bvp
-        .y
-        .chunks_exact(suslov::model::generated::N_STATE)
-        .map(|y| y[..3].iter().map(|v| v * v).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
-    let longest_interval = sol
-        .bvp
-        .x
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(0.0, f64::max)
-        * 100.0;
+    let (longest_interval, omega_max) = longest_step_and_fastest_turn(&sol);
     assert!(
         longest_interval * omega_max > 10.0,
         "{longest_interval} {omega_max}"
@@ -530,19 +538,7 @@ fn a_mesh_interval_that_turns_far_is_checked_in_windows_of_its_own() {
         verified.verification
     );
     // Some interval turns by more than a radian: the windows inside it are what changed.
-    let omega_max = sol
-        .bvp
-        .y
-        .chunks_exact(suslov::model::generated::N_STATE)
-        .map(|y| y[..3].iter().map(|v| v * v).sum::<f64>().sqrt())
-        .fold(0.0, f64::max);
-    let longest = sol
-        .bvp
-        .x
-        .windows(2)
-        .map(|w| w[1] - w[0])
-        .fold(0.0, f64::max)
-        * sol.t_span;
+    let (longest, omega_max) = longest_step_and_fastest_turn(&sol);
     assert!(longest * omega_max > 1.0, "{longest} {omega_max}");
     let windows = verified.reintegration.as_ref().unwrap().windows;
     assert!(windows > sol.bvp.x.len() / 100, "{windows}");

@@ -201,12 +201,11 @@ pub fn rotation_windows<M: Model>(sol: &LieSolution<M>, max_angle: f64) -> Vec<(
         // stretch that the mesh spans in one step) is cut into equal windows inside it,
         // restarted from the solution's interpolant, so that no window turns by much more.
         if turn > max_angle {
-            if end > start && angle > 0.0 {
-                let node = (a + w[0] * sol.t_span).min(b);
-                if node > start {
-                    windows.push((start, node));
-                    start = node;
-                }
+            // Close the window open before this interval at its first node.
+            let node = (a + w[0] * sol.t_span).min(b);
+            if node > start {
+                windows.push((start, node));
+                start = node;
             }
             let pieces = (turn / max_angle).ceil();
             let t_begin = start;
