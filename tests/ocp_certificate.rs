@@ -206,6 +206,16 @@ fn nlp_derivatives_match_finite_differences() {
             let g = tr.gradient(&v);
             let a = dense(&tr.jacobian(&v), nc, nv, false);
             let h = dense(&tr.lagrangian_hessian(&v, &y), nv, nv, true);
+            // The KKT pattern is built from the positions alone (no evaluation): they must be
+            // those of the evaluated derivatives, entry for entry.
+            let pos = |e: &[(usize, usize, f64)]| -> Vec<(usize, usize)> {
+                e.iter().map(|&(r, c, _)| (r, c)).collect()
+            };
+            assert_eq!(pos(&tr.jacobian(&v)), pos(&tr.jacobian_positions()));
+            assert_eq!(
+                pos(&tr.lagrangian_hessian(&v, &y)),
+                pos(&tr.lagrangian_hessian_positions())
+            );
             let lagr_grad = |v: &[f64]| -> Vec<f64> {
                 let mut r = tr.gradient(v);
                 for (row, col, val) in tr.jacobian(v) {
@@ -262,7 +272,7 @@ fn inertia_and_margin_match_a_dense_null_space_computation() {
             let amp = if trial % 2 == 0 { 0.1 } else { 5.0 };
             let y: Vec<f64> = (0..tr.n_con()).map(|_| rng.uniform(-amp, amp)).collect();
             let pt = KktPoint { v, y };
-            let matrix = KktMatrix::new(&tr, &pt.v).expect("pattern");
+            let matrix = KktMatrix::new(&tr).expect("pattern");
             let rep = second_order(&tr, &matrix, &pt, &opts).expect("second-order test runs");
             let (neg, mu) = dense_reduced(&tr, &pt);
             let (lo, hi) = rep.margin.expect("margin bracketed");
@@ -404,7 +414,7 @@ fn the_test_seeded_by_newton_agrees_with_the_plain_test() {
     for (t_len, verdict) in [(2.0, Verdict::Certified), (4.0, Verdict::NotMinimum)] {
         let tr = oscillator_transcription(&prob, t_len, (20.0 * t_len) as usize);
         let v0 = oscillator_extremal(&tr, t_len);
-        let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
+        let matrix = KktMatrix::new(&tr).expect("pattern");
         let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
         let start = KktPoint { v: v0, y: y0 };
         let (point, _, near) =
@@ -497,7 +507,7 @@ fn least_squares_multipliers_vanish_residual_at_kkt_point() {
     let prob = Quadratic::oscillator(false);
     let tr = oscillator_transcription(&prob, 2.0, 10);
     let v0 = oscillator_extremal(&tr, 2.0);
-    let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
+    let matrix = KktMatrix::new(&tr).expect("pattern");
     let (pt, _) = kkt::newton(
         &tr,
         &matrix,

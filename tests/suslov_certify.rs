@@ -190,7 +190,17 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
         }
     }
     v0.push(sol.generic.t_span);
-    let matrix = KktMatrix::new(&tr, &v0).expect("pattern");
+    // The KKT pattern comes from the positions alone: those of the evaluated derivatives.
+    let pos = |e: Vec<(usize, usize, f64)>| -> Vec<(usize, usize)> {
+        e.into_iter().map(|(r, c, _)| (r, c)).collect()
+    };
+    assert_eq!(pos(tr.jacobian(&v0)), pos(tr.jacobian_positions()));
+    let y_any: Vec<f64> = (0..tr.n_con()).map(|i| (i % 7) as f64 - 3.0).collect();
+    assert_eq!(
+        pos(tr.lagrangian_hessian(&v0, &y_any)),
+        pos(tr.lagrangian_hessian_positions())
+    );
+    let matrix = KktMatrix::new(&tr).expect("pattern");
     let y0 = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
     let (pt, _) = kkt::newton(
         &tr,

@@ -465,7 +465,7 @@ fn reduced_costates<M: Model>(
     if w.len() != tr.n_var() {
         return Err(format!("{} values for {} unknowns", w.len(), tr.n_var()));
     }
-    let kkt = ocp::kkt::KktMatrix::new(&tr, &w).map_err(|e| e.to_string())?;
+    let kkt = ocp::kkt::KktMatrix::new(&tr).map_err(|e| e.to_string())?;
     let y = ocp::kkt::least_squares_multipliers(&tr, &kkt, &w).map_err(|e| e.to_string())?;
     let weights = tr.quadrature_weights();
     let mut pi = tr.point_multipliers(&y);

@@ -839,7 +839,7 @@ pub fn certify<P: OcpProblem + ?Sized>(
             got: v0.len(),
         });
     }
-    let matrix = KktMatrix::new(tr, &v0)?;
+    let matrix = KktMatrix::new(tr)?;
     let y0 = kkt::least_squares_multipliers(tr, &matrix, &v0)?;
     let start = KktPoint { v: v0, y: y0 };
     let candidate = kkt::residual(tr, &start);

@@ -109,14 +109,11 @@ pub struct KktMatrix {
 }
 
 impl KktMatrix {
-    /// The pattern of `tr`'s KKT matrices. The positions do not depend on the point; they are
-    /// read off the transcription's derivatives at `v` (any point where the problem is
-    /// defined, e.g. the candidate).
-    pub fn new<P: OcpProblem + ?Sized>(
-        tr: &Transcription<'_, P>,
-        v: &[f64],
-    ) -> Result<Self, KktError> {
-        Self::build(tr, v, false)
+    /// The pattern of `tr`'s KKT matrices. The positions do not depend on the point: they are
+    /// the transcription's structure ([`Transcription::jacobian_positions`],
+    /// [`Transcription::lagrangian_hessian_positions`]), found without evaluating the problem.
+    pub fn new<P: OcpProblem + ?Sized>(tr: &Transcription<'_, P>) -> Result<Self, KktError> {
+        Self::build(tr, false)
     }
 
     /// [`KktMatrix::new`] with a diagonal in the constraint block too, for the matrices
@@ -124,21 +121,22 @@ impl KktMatrix {
     /// Jacobian that loses rank).
     pub fn regularizable<P: OcpProblem + ?Sized>(
         tr: &Transcription<'_, P>,
-        v: &[f64],
     ) -> Result<Self, KktError> {
-        Self::build(tr, v, true)
+        Self::build(tr, true)
     }
 
     fn build<P: OcpProblem + ?Sized>(
         tr: &Transcription<'_, P>,
-        v: &[f64],
         constraint_diagonal: bool,
     ) -> Result<Self, KktError> {
         let (nv, nc) = (tr.n_var(), tr.n_con());
-        let y = vec![0.0; nc];
         let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        entries.extend(tr.lagrangian_hessian(v, &y).iter().map(|&(r, c, _)| (r, c)));
-        entries.extend(tr.jacobian(v).iter().map(|&(r, c, _)| (nv + r, c)));
+        entries.extend(
+            tr.lagrangian_hessian_positions()
+                .iter()
+                .map(|&(r, c, _)| (r, c)),
+        );
+        entries.extend(tr.jacobian_positions().iter().map(|&(r, c, _)| (nv + r, c)));
         if constraint_diagonal {
             entries.extend((nv..nv + nc).map(|i| (i, i)));
         }

@@ -255,7 +255,7 @@ pub fn sqp<P: OcpProblem + ?Sized>(
     if !tr.objective(&v0).is_finite() || !tr.constraints(&v0).iter().all(|c| c.is_finite()) {
         return Err(SqpError::NonFiniteStart);
     }
-    let kkt = KktMatrix::regularizable(tr, &v0).map_err(|e| match e {
+    let kkt = KktMatrix::regularizable(tr).map_err(|e| match e {
         super::kkt::KktError::Pattern(p) => SqpError::Factorization(p),
         _ => SqpError::NonFiniteStart,
     })?;

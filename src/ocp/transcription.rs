@@ -405,9 +405,27 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
     /// The constraint Jacobian as entries `(constraint, unknown, value)`; the positions are
     /// the same for every `v`.
     pub fn jacobian(&self, v: &[f64]) -> Vec<Entry> {
+        self.jacobian_at(Some(v))
+    }
+
+    /// The positions of [`Self::jacobian`]'s entries, in its order, without evaluating the
+    /// problem (values 0; the structural `±1` and boundary coefficients are kept).
+    pub fn jacobian_positions(&self) -> Vec<Entry> {
+        self.jacobian_at(None)
+    }
+
+    /// [`Self::jacobian`] at `v`, or (`None`) its positions alone: the same loops, so the two
+    /// cannot disagree.
+    fn jacobian_at(&self, v: Option<&[f64]>) -> Vec<Entry> {
         let (n, nz) = (self.n, self.nz());
-        let t_len = self.length(v);
-        let (f, f_z, f_t) = self.all_dynamics(v);
+        let t_len = v.map_or(0.0, |v| self.length(v));
+        let (f, f_z, f_t) = match v {
+            Some(v) => self.all_dynamics(v),
+            None => {
+                let np = self.n_points();
+                (vec![0.0; np * n], vec![0.0; np * n * nz], vec![0.0; np * n])
+            }
+        };
         let t_col = self.length_index();
         let mut out = Vec::with_capacity(3 * self.n_intervals() * n * (4 * nz + 3));
         for k in 0..self.n_intervals() {
@@ -421,7 +439,9 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
                     for j in 0..4 {
                         let p = 3 * k + j;
                         let coef = -t_len * h * self.tab.a[i][j];
-                        if coef != 0.0 {
+                        // Structural: the tableau's zeros (not the value's, so that the
+                        // positions do not depend on the point).
+                        if self.tab.a[i][j] != 0.0 {
                             for col in 0..nz {
                                 out.push((
                                     row + r,
@@ -445,9 +465,11 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             let (mut g, mut g_z, mut g_t) = (vec![0.0; ng], vec![0.0; ng * nz], vec![0.0; ng]);
             for p in 0..self.n_points() {
                 let s = self.point_s(p);
-                let z = &v[p * nz..(p + 1) * nz];
-                self.problem
-                    .path(self.point_time(p, t_len), z, &mut g, &mut g_z, &mut g_t);
+                if let Some(v) = v {
+                    let z = &v[p * nz..(p + 1) * nz];
+                    self.problem
+                        .path(self.point_time(p, t_len), z, &mut g, &mut g_z, &mut g_t);
+                }
                 for r in 0..ng {
                     let row = self.path_row(p) + r;
                     for col in 0..nz {
@@ -487,10 +509,25 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
     /// The Hessian of the Lagrangian `ℒ = J + yᵀ c` at `(v, y)`, lower triangle only
     /// (`row ≥ column`). The positions are the same for every `(v, y)`.
     pub fn lagrangian_hessian(&self, v: &[f64], y: &[f64]) -> Vec<Entry> {
+        self.lagrangian_hessian_at(Some((v, y)))
+    }
+
+    /// The positions of [`Self::lagrangian_hessian`]'s entries, in its order, without
+    /// evaluating the problem (values 0).
+    pub fn lagrangian_hessian_positions(&self) -> Vec<Entry> {
+        self.lagrangian_hessian_at(None)
+    }
+
+    /// [`Self::lagrangian_hessian`] at `(v, y)`, or (`None`) its positions alone: the same
+    /// loops, so the two cannot disagree.
+    fn lagrangian_hessian_at(&self, at: Option<(&[f64], &[f64])>) -> Vec<Entry> {
         let (n, nz) = (self.n, self.nz());
-        let t_len = self.length(v);
+        let t_len = at.map_or(0.0, |(v, _)| self.length(v));
         let omega = self.quadrature_weights();
-        let lam = self.point_multipliers(y);
+        let lam = match at {
+            Some((_, y)) => self.point_multipliers(y),
+            None => vec![0.0; self.n_points() * n],
+        };
         let t_col = self.length_index();
         let (ng, nm) = (self.n_g, n + self.n_g);
         let d = nz + 1;
@@ -506,12 +543,14 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         let mut d_tt = 0.0;
         for p in 0..self.n_points() {
             let (s, t) = (self.point_s(p), self.point_time(p, t_len));
-            let z = &v[p * nz..(p + 1) * nz];
-            lp[..n].copy_from_slice(&lam[p * n..(p + 1) * n]);
-            let path_rows = self.path_row(p)..self.path_row(p) + ng;
-            lp[n..].copy_from_slice(&y[path_rows]);
-            self.problem
-                .lagrangian_hessian(t, z, omega[p], &lp, &mut hess);
+            if let Some((v, y)) = at {
+                let z = &v[p * nz..(p + 1) * nz];
+                lp[..n].copy_from_slice(&lam[p * n..(p + 1) * n]);
+                let path_rows = self.path_row(p)..self.path_row(p) + ng;
+                lp[n..].copy_from_slice(&y[path_rows]);
+                self.problem
+                    .lagrangian_hessian(t, z, omega[p], &lp, &mut hess);
+            }
             for r in 0..nz {
                 for c in 0..=r {
                     // Zeros are kept: the pattern is the same at every point (the KKT
@@ -521,10 +560,14 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
             }
             if let Some(tc) = t_col {
                 // ℓ_z and ℓ_t of this point.
-                let (_, l_t) = self.problem.running_cost(t, z, &mut l_z);
-                self.problem.dynamics(t, z, &mut f, &mut f_z, &mut f_t);
-                if ng > 0 {
-                    self.problem.path(t, z, &mut g, &mut g_z, &mut g_t);
+                let mut l_t = 0.0;
+                if let Some((v, _)) = at {
+                    let z = &v[p * nz..(p + 1) * nz];
+                    l_t = self.problem.running_cost(t, z, &mut l_z).1;
+                    self.problem.dynamics(t, z, &mut f, &mut f_z, &mut f_t);
+                    if ng > 0 {
+                        self.problem.path(t, z, &mut g, &mut g_z, &mut g_t);
+                    }
                 }
                 let mut ell_t = omega[p] * l_t;
                 for r in 0..n {
