@@ -240,3 +240,17 @@ fn the_direct_starts_kappa_is_the_bvps() {
         assert!(worst < 2e-3 * scale, "{form:?}: {worst:e} of {scale:e}");
     }
 }
+
+/// spiral-129 (η = 0, fixed b): every analytic start fails, and the direct method's minimum is
+/// a regular one, converged in the mesh (0.544341, 0.544726, 0.544740, 0.544739 on 100, 200,
+/// 400 and 800 intervals, min |ξ| 0.025 to 0.017) and below every control with a vanishing ξ
+/// (the relaxed minimum's, 0.659168). The BVP converges from it refined to 400 intervals (not
+/// from 100 or 200): solved with default settings since session 20, where sessions 16–19
+/// stopped (16–18 calling the relaxed control ε-optimal).
+#[test]
+fn spiral_129s_regular_minimum_is_reached_from_the_direct_minimum_refined_to_400_intervals() {
+    let (sol, cost) = solved_by_the_direct_start("spiral_129_refined_direct.toml");
+    assert!((cost - 0.54474012).abs() < 1e-7, "{cost}");
+    let least = min_xi(&sol.bvp);
+    assert!(least > 0.01 && least < 0.03, "min |xi| {least}");
+}

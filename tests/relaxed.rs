@@ -360,10 +360,13 @@ fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
     );
 }
 
-/// The direct method's discrete minimum below every control with a vanishing ξ (corpus problem
-/// spiral-129, η = 0, fixed b, when measured: 0.544726 with min |ξ| 0.018, against the relaxed
-/// minimum's control 0.659168): a cheaper minimum may exist, so the relaxed control is not
-/// called ε-optimal. Within the direct mesh's quadrature (1e-3 relative) it is not cheaper.
+/// The direct method's discrete minimum below every control with a vanishing ξ (the numbers of
+/// corpus problem spiral-129, η = 0, fixed b, as session 19 measured them: 0.544726 with min
+/// |ξ| 0.018 on 200 intervals, against the relaxed minimum's control 0.659168): a cheaper
+/// minimum may exist, so the relaxed control is not called ε-optimal. Within the direct mesh's
+/// quadrature (1e-3 relative) it is not cheaper. (spiral-129's cheaper minimum was a regular
+/// one, which the direct route now reaches: `tests/missed_regular.rs`; spiral-189 still stops
+/// this way.)
 #[test]
 fn a_cheaper_direct_minimum_withholds_the_eps_optimal_claim() {
     use suslov::lie::collapse::{CollapseEvidence, CollapsedControl, DIRECT_COST_RTOL};

@@ -2076,8 +2076,14 @@ impl<M: Model> DirectFailure<M> {
     }
 }
 
-/// A direct start that stops is tried once more on a mesh this many times finer.
+/// A direct start that stops is tried once more on a mesh this many times finer, and a
+/// minimum the BVP does not take up is refined by this factor at a time.
 const DIRECT_RETRY_FACTOR: usize = 2;
+
+/// The finest mesh a direct minimum is refined to (from 100 intervals: 200, then 400).
+/// Corpus problem spiral-129's BVP converges from its minimum refined to 400 intervals
+/// (cost 0.54474012, min |ξ| 0.017), not from 100 or 200.
+const DIRECT_MAX_REFINED_INTERVALS: usize = 4 * DIRECT_MAX_INTERVALS;
 
 /// The direct-start route: [`super::direct::direct_start`], then one BVP solve from it (as
 /// [`solve_from`]'s) and the a-posteriori checks; if that stops, all of it once more on a
@@ -2218,8 +2224,9 @@ fn direct_finding<M: Model>(
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the
 /// verified solution and its cost. When the BVP does not converge from the SQP's minimum, the
 /// same minimum refined to a [`DIRECT_RETRY_FACTOR`] times finer mesh (a few SQP iterations
-/// from it, its points interpolated) is tried: corpus problem fast-198's BVP converges from
-/// its minimum on 200 intervals, not on 100.
+/// from it, its points interpolated) is tried, and again, up to
+/// [`DIRECT_MAX_REFINED_INTERVALS`]: corpus problem fast-198's BVP converges from its minimum
+/// on 200 intervals, not on 100; spiral-129's on 400, not on 200.
 fn direct_attempt<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -2249,25 +2256,30 @@ fn direct_attempt<M: Model>(
             Err(why)
         }
     };
-    if let Err(why) = &mut solved {
-        let finer = DIRECT_RETRY_FACTOR * intervals;
-        if !options.stopped() {
-            match super::direct::refine_start(problem, &start, finer, form) {
-                Ok(refined) => {
-                    match warm_solve(problem, options, &refined.warm, WarmOrigin::Direct, events) {
-                        Ok(sol) => solved = Ok(sol),
-                        Err(e) => {
-                            why.push_str(&format!(
-                                "; refined to {finer} intervals (cost {:.6e}), the BVP from it \
-                                 stopped: {e}",
-                                refined.cost
-                            ));
-                            keep_stop(e, &mut stop);
-                        }
+    let mut finer = intervals;
+    while let Err(why) = &mut solved {
+        finer *= DIRECT_RETRY_FACTOR;
+        if finer > DIRECT_MAX_REFINED_INTERVALS || options.stopped() {
+            break;
+        }
+        match super::direct::refine_start(problem, &start, finer, form) {
+            Ok(refined) => {
+                match warm_solve(problem, options, &refined.warm, WarmOrigin::Direct, events) {
+                    Ok(sol) => solved = Ok(sol),
+                    Err(e) => {
+                        why.push_str(&format!(
+                            "; refined to {finer} intervals (cost {:.6e}), the BVP from it \
+                             stopped: {e}",
+                            refined.cost
+                        ));
+                        keep_stop(e, &mut stop);
                     }
-                    start = refined;
                 }
-                Err(e) => why.push_str(&format!("; refining it to {finer} intervals: {e}")),
+                start = refined;
+            }
+            Err(e) => {
+                why.push_str(&format!("; refining it to {finer} intervals: {e}"));
+                break;
             }
         }
     }
