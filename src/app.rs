@@ -284,7 +284,7 @@ fn write_case_outputs(
     sub: &Path,
     sol: &SuslovSolution,
     title: &str,
-    (kind, output): (Outputs, &OutputOptions),
+    (kind, output, threads): (Outputs, &OutputOptions, Threads),
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<(), AppError> {
     let table = trajectory_table(sol, output.points);
@@ -365,9 +365,7 @@ fn write_case_outputs(
             })
         })
         .collect();
-    let workers = std::thread::available_parallelism()
-        .map_or(1, |n| n.get())
-        .clamp(1, jobs.len());
+    let workers = threads.count().clamp(1, jobs.len());
     let next = std::sync::atomic::AtomicUsize::new(0);
     let mut rendered: Vec<Option<Result<Vec<u8>, ReportError>>> =
         (0..jobs.len()).map(|_| None).collect();
@@ -429,10 +427,78 @@ pub fn run_case(
     output: &OutputOptions,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<CaseSummary, AppError> {
+    let SolvedCase { summary, pending } = solve_case(name, problem, options, output, events);
+    pending.write(out, sub, (output, Threads::All), events)?;
+    Ok(summary)
+}
+
+/// How many threads render a case's figures.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Threads {
+    /// As many as the machine has cores.
+    All,
+    /// One core fewer (at least one): another thread is solving the next case meanwhile.
+    AllButOne,
+}
+
+impl Threads {
+    fn count(self) -> usize {
+        let cores = std::thread::available_parallelism().map_or(1, |n| n.get());
+        match self {
+            Threads::All => cores,
+            Threads::AllButOne => cores.saturating_sub(1).max(1),
+        }
+    }
+}
+
+/// One case solved, verified and summarized ([`solve_case`]), its files not yet written.
+struct SolvedCase {
+    summary: CaseSummary,
+    pending: PendingOutputs,
+}
+
+/// What a case writes: its trajectory tables, collocation solution and figures (per
+/// [`Outputs`]), and the ε-optimal control's table when the evidence gives one.
+struct PendingOutputs {
+    /// The case's name (the figures' title).
+    name: String,
+    trajectory: Option<(SuslovSolution, Outputs)>,
+    infimum: Option<String>,
+}
+
+impl PendingOutputs {
+    /// Write the files into `out` under `sub`, rendering the figures on `threads`.
+    fn write(
+        &self,
+        out: &mut OutputDir,
+        sub: &Path,
+        (output, threads): (&OutputOptions, Threads),
+        events: &mut dyn FnMut(AppEvent),
+    ) -> Result<(), AppError> {
+        if let Some((sol, kind)) = &self.trajectory {
+            write_case_outputs(out, sub, sol, &self.name, (*kind, output, threads), events)?;
+        }
+        if let Some(text) = &self.infimum {
+            let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
+            events(AppEvent::Wrote(&path));
+        }
+        Ok(())
+    }
+}
+
+/// Solve one problem, verify and summarize it (the summary is final: [`AppEvent::CaseFinished`]
+/// is sent), and say what it writes.
+fn solve_case(
+    name: &str,
+    problem: &SuslovProblem,
+    options: &SolveOptions,
+    output: &OutputOptions,
+    events: &mut dyn FnMut(AppEvent),
+) -> SolvedCase {
     events(AppEvent::CaseStarted { name });
     let clock = Instant::now();
     let result = solve::solve(problem, options, &mut |e| events(AppEvent::Solve(e)));
-    let summary = match result {
+    let (summary, pending) = match result {
         Ok(sol) => {
             let mut s = summarize(name, &sol, 0.0);
             s.wall_seconds = clock.elapsed().as_secs_f64();
@@ -441,8 +507,12 @@ pub fn run_case(
             } else {
                 Outputs::Unverified
             };
-            write_case_outputs(out, sub, &sol, name, (kind, output), events)?;
-            s
+            let pending = PendingOutputs {
+                name: name.to_string(),
+                trajectory: Some((sol, kind)),
+                infimum: None,
+            };
+            (s, pending)
         }
         Err(SolveError::StageFailed {
             stage,
@@ -462,15 +532,14 @@ pub fn run_case(
             s.set_status(&CaseStatus::Partial(format!(
                 "stage '{stage}' stopped{at}: {reason}"
             )));
-            write_case_outputs(out, sub, &partial, name, (Outputs::Partial, output), events)?;
             let (generic, found) = (&partial.generic, partial.generic.collapse.as_ref());
-            if let Some(text) =
-                lie::infimum_output(&generic.problem, found, output.points, &mut s.extra)
-            {
-                let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
-                events(AppEvent::Wrote(&path));
-            }
-            s
+            let infimum = lie::infimum_output(&generic.problem, found, output.points, &mut s.extra);
+            let pending = PendingOutputs {
+                name: name.to_string(),
+                trajectory: Some((*partial, Outputs::Partial)),
+                infimum,
+            };
+            (s, pending)
         }
         Err(e) => {
             let mut s = CaseSummary {
@@ -485,6 +554,7 @@ pub fn run_case(
             };
             // A start that fails on every route, explained by the direct method's minimum:
             // that evidence, and where the minimizing controls collapse, the ε-optimal control.
+            let mut infimum = None;
             if let (
                 SolveError::Start {
                     collapse: Some(found),
@@ -494,18 +564,18 @@ pub fn run_case(
             ) = (&e, problem.to_generic())
             {
                 s.extra.insert("collapse".into(), serde_json::json!(found));
-                if let Some(text) =
-                    lie::infimum_output(&generic, Some(found), output.points, &mut s.extra)
-                {
-                    let path = out.write(sub.join(lie::INFIMUM_FILE), text.as_bytes())?;
-                    events(AppEvent::Wrote(&path));
-                }
+                infimum = lie::infimum_output(&generic, Some(found), output.points, &mut s.extra);
             }
-            s
+            let pending = PendingOutputs {
+                name: name.to_string(),
+                trajectory: None,
+                infimum,
+            };
+            (s, pending)
         }
     };
     events(AppEvent::CaseFinished(&summary));
-    Ok(summary)
+    SolvedCase { summary, pending }
 }
 
 /// `suslov paper --out DIR`: both cases of section 5.3, each in its own subdirectory, and
@@ -534,6 +604,7 @@ pub fn run_paper_with(
     )?;
     let mut summary = Summary::new(Vec::new());
     let options = SolveOptions::default();
+    let mut inputs = Vec::with_capacity(paper::CASES.len());
     for case in &paper::CASES {
         let input = config::resolved::paper_case(case);
         let path = dir.write(
@@ -543,19 +614,81 @@ pub fn run_paper_with(
                 .as_bytes(),
         )?;
         events(AppEvent::Wrote(&path));
-        let mut summary_case = run_case(
-            case.name,
-            &paper::problem(case.eta),
-            (&mut dir, Path::new(case.name)),
-            &options,
-            output,
-            events,
-        )?;
-        summary_case.input = Some(input.to_json());
-        summary.cases.push(summary_case);
+        inputs.push(input);
     }
+    // Each case's files (trajectory tables, figures) are written on a second thread while the
+    // next case is solved on this one; the directory passes from one writer to the next, and
+    // the files each writer wrote are reported when it is joined. The bytes do not depend on
+    // the overlap.
+    let dir = std::thread::scope(|scope| -> Result<OutputDir, AppError> {
+        let mut writer: Option<std::thread::ScopedJoinHandle<'_, WriterResult>> = None;
+        let mut dir = Some(dir);
+        let last = paper::CASES.len() - 1;
+        for (k, (case, input)) in paper::CASES.iter().zip(inputs).enumerate() {
+            let SolvedCase {
+                summary: mut case_summary,
+                pending,
+            } = solve_case(
+                case.name,
+                &paper::problem(case.eta),
+                &options,
+                output,
+                events,
+            );
+            case_summary.input = Some(input.to_json());
+            summary.cases.push(case_summary);
+            if let Some(handle) = writer.take() {
+                dir = Some(join_writer(handle, events)?);
+            }
+            let Some(mut out) = dir.take() else {
+                unreachable!("every writer joined above returns the directory")
+            };
+            let threads = if k < last {
+                Threads::AllButOne
+            } else {
+                Threads::All
+            };
+            writer = Some(scope.spawn(move || {
+                let mut wrote = Vec::new();
+                let sub = Path::new(case.name);
+                let result = pending.write(&mut out, sub, (output, threads), &mut |e| {
+                    if let AppEvent::Wrote(path) = e {
+                        wrote.push(path.to_path_buf());
+                    }
+                });
+                (out, result, wrote)
+            }));
+        }
+        match (writer, dir) {
+            (Some(handle), _) => join_writer(handle, events),
+            (None, Some(dir)) => Ok(dir),
+            (None, None) => unreachable!("the directory is with the last writer, if any"),
+        }
+    })?;
     finish(dir, &summary, events)?;
     Ok(summary)
+}
+
+/// What a case's writer thread returns: the output directory, whether every file was
+/// written, and the files written.
+type WriterResult = (OutputDir, Result<(), AppError>, Vec<PathBuf>);
+
+/// Wait for a writer thread, report its files, and take the directory back.
+fn join_writer(
+    handle: std::thread::ScopedJoinHandle<'_, WriterResult>,
+    events: &mut dyn FnMut(AppEvent),
+) -> Result<OutputDir, AppError> {
+    let (dir, result, wrote) = handle.join().map_err(|_| {
+        AppError::Report(ReportError::InvalidInput(
+            "writing a case's files failed unexpectedly (its thread panicked); the output \
+             directory is left marked INCOMPLETE"
+                .to_string(),
+        ))
+    })?;
+    for path in &wrote {
+        events(AppEvent::Wrote(path));
+    }
+    result.map(|()| dir)
 }
 
 /// Writes `summary.json`, the last file of a run, and releases the directory.
