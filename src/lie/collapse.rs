@@ -41,9 +41,9 @@
 //! control `ξ_ε` ([`COLLAPSE_EPS`]) at given weights: its cost by composite 5-point
 //! Gauss–Legendre quadrature (globally adaptive from [`PANELS`] equal panels: each panel's
 //! rule compared with that on its halves, the worst panel split until the differences sum to
-//! [`QUADRATURE_RTOL`]; that sum is the reported quadrature error), and its motion re-integrated from the motion's own states
-//! (the generated `suslov_omega_dot` driven by `ξ_ε`, in windows of about one radian of
-//! rotation as the solution checks do): a control whose re-integration departs from its
+//! [`QUADRATURE_RTOL`]; that sum is the reported quadrature error), and its motion
+//! re-integrated from the motion's own states (the generated `suslov_omega_dot` driven by
+//! `ξ_ε`, in windows of about one radian of rotation as the solution checks do): a control whose re-integration departs from its
 //! motion by more than [`REINTEGRATION_TOL`] (relative) is refused, not reported.
 //! [`best_span`] scans the terminal time for the projected segment (free-time problems).
 
@@ -180,8 +180,8 @@ type Control<'a> = dyn Fn(f64, f64, &mut [f64]) -> Result<(), CollapseError> + '
 /// estimate is split (its halves become panels, 20 evaluations) until the estimates sum to at
 /// most [`QUADRATURE_RTOL`] `· (1 + |J|)` or [`MAX_PANELS`] panels are in use. Unlike uniform
 /// doubling, this spends its evaluations where the integrand needs them: the paper's desired
-/// path turns within a width of 0.01 at `b_d`, and a control whose span crosses `b_d` needed
-/// up to 8192 uniform panels on `[a, a + 90]` (session 21), where most of the span is smooth.
+/// path turns within a width of 0.01 at `b_d`, and the long spans of the free-time scan cross
+/// it while most of each span is smooth (the measured cost: `bench/README.md`).
 fn cost_on<M: Model>(
     params: &[f64],
     desired: &dyn Path,
