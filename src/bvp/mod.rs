@@ -478,7 +478,8 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
             ErrorEstimate::default() // finite = false
         };
         let newton_ok = outcome == NewtonOutcome::Converged;
-        // Conditioning costs 2(n+k) + ~10 solves: only for candidates and final reports.
+        // Conditioning costs two blocked solves (all n + k boundary rows at once) and up to 10
+        // single ones: only for candidates and final reports.
         let candidate = newton_ok && est.finite && est.max_error <= 1.0 && est.max_defect <= 1.0;
         let well_posed = candidate && estimate_conditioning(&mut sys, &col, options, &mut stats);
         let step = choose_next_step(
