@@ -1143,6 +1143,114 @@ impl Path for Projected {
     }
 }
 
+/// A path that remembers its jets: `jet_into(t)` returns the inner path's jet at `t`,
+/// computed once per distinct `t` (bit for bit) while it stays in a direct-mapped table of
+/// [`Memo::SLOTS`] entries.
+///
+/// Why: the collocation solver evaluates the desired path at the same times over and over.
+/// On a fixed horizon the nodes and stage points of a mesh do not move between Newton
+/// iterations or between continuation steps on one mesh, and with a free horizon the
+/// Jacobian is evaluated at the very times of the residual before it. A jet of a projected
+/// path costs a third-order dual-number evaluation and a projection; a lookup costs a hash
+/// and a copy. The values returned are the inner path's own (the same computation, done
+/// once), so a solve gives the same bits with or without the memo.
+///
+/// The table is allocated at the first `jet_into`; `value_into` and `end_time` go to the
+/// inner path. Non-finite `t` is never stored. Safe to share between threads (a mutex
+/// guards the table; the inner path is evaluated outside it).
+pub struct Memo {
+    inner: Arc<dyn Path>,
+    table: std::sync::Mutex<MemoTable>,
+}
+
+/// Keys (`t.to_bits()`, [`MemoTable::EMPTY`] for a free slot) and jets (`4·dim` per slot).
+#[derive(Default)]
+struct MemoTable {
+    keys: Vec<u64>,
+    jets: Vec<f64>,
+}
+
+impl MemoTable {
+    /// A NaN's bits: never the key of a stored (finite) time.
+    const EMPTY: u64 = u64::MAX;
+
+    /// Fibonacci hashing of the time's bits onto `log2(SLOTS)` bits.
+    fn slot(bits: u64) -> usize {
+        (bits.wrapping_mul(0x9E37_79B9_7F4A_7C15) >> (64 - Memo::SLOTS.trailing_zeros())) as usize
+    }
+}
+
+impl Memo {
+    /// Slots of the table (a power of two): the nodes and stage points of a mesh of a
+    /// thousand intervals mostly keep a slot each.
+    pub const SLOTS: usize = 4096;
+
+    /// `inner`, remembered.
+    pub fn new(inner: Arc<dyn Path>) -> Self {
+        Self {
+            inner,
+            table: std::sync::Mutex::new(MemoTable::default()),
+        }
+    }
+
+    fn table(&self) -> std::sync::MutexGuard<'_, MemoTable> {
+        // Nothing that can panic runs under the lock; a poisoned lock's table is still
+        // consistent (a slot's key is written after its jet).
+        self.table.lock().unwrap_or_else(|e| e.into_inner())
+    }
+}
+
+impl fmt::Debug for Memo {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Memo")
+            .field(
+                "inner",
+                &format_args!("<dyn Path, dim {}>", self.inner.dim()),
+            )
+            .finish()
+    }
+}
+
+impl Path for Memo {
+    fn dim(&self) -> usize {
+        self.inner.dim()
+    }
+
+    fn jet_into(&self, t: f64, out: &mut [f64]) {
+        let len = 4 * self.dim();
+        check_out("jet_into", out.len(), len);
+        if !t.is_finite() {
+            self.inner.jet_into(t, out);
+            return;
+        }
+        let bits = t.to_bits();
+        let slot = MemoTable::slot(bits);
+        {
+            let table = self.table();
+            if table.keys.get(slot) == Some(&bits) {
+                out.copy_from_slice(&table.jets[slot * len..(slot + 1) * len]);
+                return;
+            }
+        }
+        self.inner.jet_into(t, out);
+        let mut table = self.table();
+        if table.keys.is_empty() {
+            table.keys = vec![MemoTable::EMPTY; Self::SLOTS];
+            table.jets = vec![0.0; Self::SLOTS * len];
+        }
+        table.jets[slot * len..(slot + 1) * len].copy_from_slice(out);
+        table.keys[slot] = bits;
+    }
+
+    fn value_into(&self, t: f64, out: &mut [f64]) {
+        self.inner.value_into(t, out);
+    }
+
+    fn end_time(&self) -> Option<f64> {
+        self.inner.end_time()
+    }
+}
+
 /// The projected straight segment from `from` (at `t0`) to `to` (at `t1`) on `set`.
 ///
 /// Both end points must lie on the set within `tol` relative energy mismatch
@@ -1238,6 +1346,112 @@ mod tests {
         let mut out = vec![0.0; 4 * path.dim()];
         path.jet_into(t, &mut out);
         out
+    }
+
+    /// An inner path that counts its evaluations.
+    struct Counting {
+        inner: Arc<dyn Path>,
+        calls: std::sync::atomic::AtomicUsize,
+    }
+
+    impl Path for Counting {
+        fn dim(&self) -> usize {
+            self.inner.dim()
+        }
+        fn jet_into(&self, t: f64, out: &mut [f64]) {
+            self.calls
+                .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            self.inner.jet_into(t, out);
+        }
+        fn end_time(&self) -> Option<f64> {
+            self.inner.end_time()
+        }
+    }
+
+    /// The memo returns the inner path's jets bit for bit, evaluates the inner path once per
+    /// time while the slot is kept, recomputes after a time is evicted by another in its
+    /// slot, passes non-finite times through, and delegates values and the end time.
+    #[test]
+    fn the_memo_returns_the_inner_jets_and_evaluates_each_time_once() {
+        let set = LevelSet::through(
+            &[1.0, 0.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0, 3.0],
+            3,
+            &[5.0, 0.0, 0.0],
+        )
+        .unwrap();
+        let inner: Arc<dyn Path> = Arc::new(
+            projected_segment(
+                &set,
+                &[5.0, 0.0, 0.0],
+                &[0.0, 3.273268353539885, 1.0910894511799618],
+                0.0,
+                2.0,
+                1e-10,
+            )
+            .unwrap(),
+        );
+        let counting = Arc::new(Counting {
+            inner: inner.clone(),
+            calls: Default::default(),
+        });
+        let memo = Memo::new(counting.clone());
+        let calls = || counting.calls.load(std::sync::atomic::Ordering::Relaxed);
+        let times: Vec<f64> = (0..=300).map(|i| i as f64 / 150.0).collect();
+        let alone = distinct(&times);
+        assert!(
+            alone >= 250,
+            "{alone} of 301 times have a slot of their own"
+        );
+        for round in 0..3 {
+            let before = calls();
+            for &t in &times {
+                let (got, want) = (jet(&memo, t), jet(&*inner, t));
+                assert!(
+                    got.iter()
+                        .zip(&want)
+                        .all(|(a, b)| a.to_bits() == b.to_bits()),
+                    "t = {t}: {got:?} against {want:?}"
+                );
+            }
+            let evaluated = calls() - before;
+            if round == 0 {
+                assert_eq!(evaluated, times.len());
+            } else {
+                // Only the times that share a slot are evaluated again.
+                assert!(
+                    evaluated <= times.len() - alone,
+                    "round {round}: {evaluated}"
+                );
+            }
+        }
+        // Two times in one slot: both still correct, in any order.
+        let t1 = 0.25_f64;
+        let slot = MemoTable::slot(t1.to_bits());
+        let t2 = (1..1_000_000)
+            .map(|i| 0.25 + i as f64 * 1e-9)
+            .find(|t: &f64| MemoTable::slot(t.to_bits()) == slot)
+            .expect("a colliding time");
+        for t in [t1, t2, t1, t2] {
+            assert_eq!(jet(&memo, t), jet(&*inner, t));
+        }
+        // Non-finite times are not stored (the inner path decides what they give).
+        let before = calls();
+        let nan = jet(&memo, f64::NAN);
+        assert!(nan.iter().all(|v| v.is_nan()) || nan == jet(&*inner, f64::NAN));
+        jet(&memo, f64::NAN);
+        assert_eq!(calls(), before + 2);
+        assert_eq!(value(&memo, 0.7), value(&*inner, 0.7));
+        assert_eq!(memo.end_time(), Some(2.0));
+        assert_eq!(memo.dim(), 3);
+    }
+
+    /// Times of `times` whose slot no other of them shares.
+    fn distinct(times: &[f64]) -> usize {
+        let mut count = std::collections::HashMap::new();
+        for t in times {
+            *count.entry(MemoTable::slot(t.to_bits())).or_insert(0) += 1;
+        }
+        count.values().filter(|&&c| c == 1).count()
     }
 
     fn value(path: &dyn Path, t: f64) -> Vec<f64> {

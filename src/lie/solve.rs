@@ -71,7 +71,7 @@ use crate::continuation::{self, ContinuationStatus, StepRecord};
 use crate::model::{HomotopyRole, Model};
 
 use super::direct::{DirectForm, DirectGuess, DirectStart};
-use super::path::{projected_segment, EndBlend, Path, Projected};
+use super::path::{projected_segment, EndBlend, Memo, Path, Projected};
 use super::problem::{with_buffer, LieBvp, Problem, ProblemError, TerminalTime, SPAN};
 
 /// Cap on the pseudo-arclength steps of a stage whose natural continuation stalled. Corpus
@@ -713,6 +713,12 @@ fn check_properties<M: Model>(
 }
 
 type SharedPath = Arc<dyn Path>;
+
+/// `path` behind a [`Memo`]: the homotopy's BVPs evaluate their desired path at the same
+/// times again and again.
+fn remembered(path: &SharedPath) -> SharedPath {
+    Arc::new(Memo::new(path.clone()))
+}
 
 /// The start path of the desired start when the desired path misses `Ω_a` or `Ω_b`: the
 /// desired path bent to them ([`EndBlend`]) over the first and last quarter of `[a, b_p]`, then
@@ -2810,7 +2816,7 @@ fn warm_solve<M: Model>(
         },
         stages: vec![report],
         tolerance: options.tol,
-        tracking: problem.desired.clone(),
+        tracking: remembered(&problem.desired),
     };
     h.finish(options, &bvp_opts, events)
 }
@@ -2882,7 +2888,7 @@ fn horizon_homotopy<'p, M: Model>(
         start: fixed.start.clone(),
         stages: fixed.stages.clone(),
         tolerance: options.tol,
-        tracking: problem.desired.clone(),
+        tracking: remembered(&problem.desired),
     }
 }
 
@@ -3081,11 +3087,11 @@ fn solve_route<M: Model>(
         to: beta_m,
     });
     // Paper's first case: the start and the tracking stage track Ω_p, not Ω_d.
-    let tracked = if start.case == 1 {
-        omega_p.clone()
+    let tracked = remembered(if start.case == 1 {
+        &omega_p
     } else {
-        problem.desired.clone()
-    };
+        &problem.desired
+    });
     let start_bvp = LieBvp::<M> {
         desired: &*tracked,
         ..start_bvp
@@ -3218,7 +3224,7 @@ fn solve_route<M: Model>(
         }
     }
     if case == 1 {
-        h.tracking = problem.desired.clone(); // weight 0 from here on
+        h.tracking = remembered(&problem.desired); // weight 0 from here on
     }
     for &i in &smoothing {
         let target = p[i];
