@@ -532,3 +532,36 @@ fn every_so3_example_solves_the_same_in_both_layers() {
     }
     assert!(compared >= 7, "{compared} so(3) examples");
 }
+
+/// The solver keeps its verification of the solution it returns, and `verify_solution` reads
+/// it back only while the solution is what was verified: the kept result equals a fresh
+/// verification (forced by putting the same path behind another `Arc`), and any change of what
+/// the checks read (a node value, the tolerance, the desired path) is verified afresh.
+#[test]
+fn a_kept_verification_is_used_only_for_the_solution_it_judged() {
+    let sol =
+        lie::solve(&paper_generic(0.01), &SolveOptions::default(), &mut |_| {}).expect("solves");
+    let kept = format!("{:?}", lie::verify_solution(&sol));
+    // The same numbers behind another Arc: verified afresh, same result.
+    let mut fresh = sol.clone();
+    fresh.problem.desired = Arc::new(lie::path::Memo::new(sol.problem.desired.clone()));
+    assert_eq!(format!("{:?}", lie::verify_solution(&fresh)), kept);
+    // A changed node value: a different verification (the residual and re-integration move).
+    let mut moved = sol.clone();
+    let i = moved.bvp.y.len() / 2;
+    moved.bvp.y[i] += 1e-3;
+    let changed = lie::verify_solution(&moved);
+    assert_ne!(format!("{changed:?}"), kept);
+    assert!(
+        !changed.verification.passed(),
+        "{:?}",
+        changed.verification.verdict()
+    );
+    // Another tolerance: judged against it. Set back: the kept result again.
+    let mut looser = sol.clone();
+    looser.tolerance = 1e-4;
+    let v = lie::verify_solution(&looser);
+    assert_eq!(v.verification.tolerance, 1e-4);
+    looser.tolerance = sol.tolerance;
+    assert_eq!(format!("{:?}", lie::verify_solution(&looser)), kept);
+}

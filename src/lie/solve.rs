@@ -462,6 +462,9 @@ pub struct LieSolution<M: Model> {
     /// target weights ([`super::collapse::for_stop`]; `None` on a solution, or when not
     /// computed).
     pub collapse: Option<super::collapse::CollapseEvidence>,
+    /// The solver's own verification of this solution, kept for [`super::verify_solution`]
+    /// (which recomputes it if anything it reads has changed since).
+    pub(crate) checked: Option<Arc<super::verify::KeptVerification>>,
 }
 
 impl<M: Model> std::fmt::Debug for LieSolution<M> {
@@ -946,6 +949,7 @@ impl<M: Model> Homotopy<'_, M> {
             routes: Vec::new(),
             time_scan: Vec::new(),
             collapse: None,
+            checked: None,
         }
     }
 
@@ -1353,7 +1357,7 @@ impl<M: Model> Homotopy<'_, M> {
             events,
         )?;
         let mut solution = self.snapshot();
-        if super::verify::verify_solution(&solution)
+        if super::verify::verify_and_keep(&mut solution)
             .verification
             .passed()
         {
@@ -1372,8 +1376,8 @@ impl<M: Model> Homotopy<'_, M> {
             {
                 break;
             }
-            let tighter = self.snapshot();
-            if super::verify::verify_solution(&tighter)
+            let mut tighter = self.snapshot();
+            if super::verify::verify_and_keep(&mut tighter)
                 .verification
                 .passed()
             {

@@ -317,6 +317,94 @@ pub fn reintegrate_in_windows<M: Model>(
 /// layer's [`Verification`]); the open-loop re-integration over `[a, b]` is measured too, as
 /// information ([`Verified::open_loop`]).
 pub fn verify_solution<M: Model>(sol: &LieSolution<M>) -> Verified {
+    if let Some(kept) = &sol.checked {
+        if kept.matches(sol) {
+            return kept.verified.clone();
+        }
+    }
+    verify_afresh(sol)
+}
+
+/// [`verify_solution`], and the result kept in `sol` for the next call (the solver verifies
+/// what it returns; the summary of the same solution then reads the kept result).
+pub(crate) fn verify_and_keep<M: Model>(sol: &mut LieSolution<M>) -> Verified {
+    let verified = verify_solution(sol);
+    sol.checked = Some(std::sync::Arc::new(KeptVerification {
+        fingerprint: fingerprint(sol),
+        desired: sol.problem.desired.clone(),
+        verified: verified.clone(),
+    }));
+    verified
+}
+
+/// A verification kept in the [`LieSolution`] it judged, with what it depends on: the
+/// fingerprint of the solution's numbers and the desired path itself (an `Arc` clone, so a
+/// replaced path can never be mistaken for the one judged). A solution changed in anything
+/// the checks read is verified again.
+#[derive(Clone)]
+pub(crate) struct KeptVerification {
+    fingerprint: u64,
+    desired: std::sync::Arc<dyn super::path::Path>,
+    verified: Verified,
+}
+
+impl KeptVerification {
+    fn matches<M: Model>(&self, sol: &LieSolution<M>) -> bool {
+        std::sync::Arc::ptr_eq(&self.desired, &sol.problem.desired)
+            && self.fingerprint == fingerprint(sol)
+    }
+}
+
+/// A 64-bit hash of every number [`verify_solution`] reads: the mesh, node values, node
+/// derivatives, stage values and their derivatives, parameters of the BVP solution, `T`, the
+/// tolerance, and the problem's constants, end points and times (the desired path is compared
+/// by identity). Multiply-rotate mixing of the bit patterns, word by word; the lengths are
+/// mixed in too.
+fn fingerprint<M: Model>(sol: &LieSolution<M>) -> u64 {
+    let mut h: u64 = 0x243F_6A88_85A3_08D3;
+    let mut word = |w: u64| {
+        h = (h ^ w).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29);
+    };
+    let slice = |v: &[f64], word: &mut dyn FnMut(u64)| {
+        word(v.len() as u64);
+        for x in v {
+            word(x.to_bits());
+        }
+    };
+    let b = &sol.bvp;
+    for v in [
+        &b.x[..],
+        &b.y,
+        &b.yp,
+        &b.p,
+        &b.stages,
+        &b.stage_f,
+        sol.problem.params(),
+        &sol.problem.omega_a,
+        &sol.problem.omega_b,
+    ] {
+        slice(v, &mut word);
+    }
+    let (kind, time) = match sol.problem.terminal {
+        super::problem::TerminalTime::Fixed(b) => (1, b),
+        super::problem::TerminalTime::Free { guess } => (2, guess),
+    };
+    for w in [
+        kind,
+        time.to_bits(),
+        sol.problem.t0.to_bits(),
+        sol.t_span.to_bits(),
+        sol.tolerance.to_bits(),
+        b.n as u64,
+        b.k as u64,
+    ] {
+        word(w);
+    }
+    h
+}
+
+/// The checks themselves (no kept result consulted).
+fn verify_afresh<M: Model>(sol: &LieSolution<M>) -> Verified {
     let diagnostics = diagnose(sol);
     let reintegration = reintegrate_windowed(sol, REINTEGRATION_WINDOW_ANGLE);
     let open_loop = reintegrate_difference(sol);
