@@ -1015,12 +1015,13 @@ fn multi_solve_upper(a: &[f64], rows: usize, p: usize, c: &mut [f64], r: usize) 
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use nalgebra::{DMatrix, DVector};
 
-    /// A deterministic pseudo-random stream in [-1, 1] (no dependency on a RNG crate).
-    fn stream(seed: u64) -> impl FnMut() -> f64 {
+    /// A deterministic pseudo-random stream in [-1, 1] (no dependency on a RNG crate; the
+    /// tests of `bvp::linear` use it too).
+    pub(crate) fn stream(seed: u64) -> impl FnMut() -> f64 {
         let mut s = seed
             .wrapping_mul(6364136223846793005)
             .wrapping_add(1442695040888963407);

@@ -324,20 +324,8 @@ impl GlobalSystem {
 
 #[cfg(test)]
 mod tests {
+    use super::super::abd::tests::stream;
     use super::*;
-
-    /// A deterministic pseudo-random stream in [-1, 1].
-    fn stream(seed: u64) -> impl FnMut() -> f64 {
-        let mut state = seed
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        move || {
-            state = state
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((state >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
-        }
-    }
 
     /// The blocked sensitivity (two solves for all boundary rows at once) is the value of the
     /// plain column-by-column computation, to the bit, after LU and after QR; and it is
