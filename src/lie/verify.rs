@@ -316,6 +316,10 @@ pub fn reintegrate_in_windows<M: Model>(
 /// [`REINTEGRATION_WINDOW_ANGLE`] and check both against its requested tolerance (the so(3)
 /// layer's [`Verification`]); the open-loop re-integration over `[a, b]` is measured too, as
 /// information ([`Verified::open_loop`]).
+///
+/// A solution returned by the solver carries the solver's own verification of it; that result
+/// is returned as long as nothing the checks read has changed (the numbers, compared by a
+/// fingerprint, and the desired path, by identity), and the checks are run afresh otherwise.
 pub fn verify_solution<M: Model>(sol: &LieSolution<M>) -> Verified {
     if let Some(kept) = &sol.checked {
         if kept.matches(sol) {
