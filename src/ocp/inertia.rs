@@ -1204,13 +1204,24 @@ impl LbltFactor {
         if checks == Checks::Nothing {
             return Ok(factor);
         }
-        // Backward error of a consistent test system K x = b, b = K y.
-        let mut rng = XorShift64::new(0x9E37_79B9_7F4A_7C15);
-        let y: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
-        let mut b = vec![0.0; n];
-        factor.matvec(&y, &mut b);
-        let mut x = b.clone();
-        let (berr, steps) = factor.solve_refined(&mut x)?;
+        // The test solve and, for a proof, the contraction estimate: independent computations
+        // with the same factors, on two threads.
+        let (test, contraction) = if checks == Checks::Proof {
+            let factor = &factor;
+            std::thread::scope(|scope| {
+                let contraction = scope.spawn(|| factor.estimate_contraction());
+                let test = factor.test_solve();
+                let contraction = contraction.join().unwrap_or_else(|_| {
+                    Err(InertiaError::Internal(
+                        "the contraction estimate's thread panicked".into(),
+                    ))
+                });
+                (test, Some(contraction))
+            })
+        } else {
+            (factor.test_solve(), None)
+        };
+        let (berr, steps) = test?;
         factor.backward_error = berr;
         factor.refinement_steps = steps;
         let unreliable = |f: &Self| InertiaError::Unreliable {
@@ -1227,7 +1238,9 @@ impl LbltFactor {
                 Ok(factor)
             };
         }
-        factor.contraction = factor.estimate_contraction()?;
+        if let Some(contraction) = contraction {
+            factor.contraction = contraction?;
+        }
         if berr.is_nan() || berr > BACKWARD_ERROR_TOL {
             return Err(unreliable(&factor));
         }
@@ -1402,6 +1415,17 @@ impl LbltFactor {
             rhs[i] = 0.0;
         }
         Ok(())
+    }
+
+    /// The refined solve of the consistent test system `K x = b`, `b = K y` (`y`
+    /// deterministic pseudo-random): its backward error and refinement steps.
+    fn test_solve(&self) -> Result<(f64, usize), InertiaError> {
+        let n = self.n();
+        let mut rng = XorShift64::new(0x9E37_79B9_7F4A_7C15);
+        let y: Vec<f64> = (0..n).map(|_| rng.uniform(-1.0, 1.0)).collect();
+        let mut b = vec![0.0; n];
+        self.matvec(&y, &mut b);
+        self.solve_refined(&mut b)
     }
 
     /// Power-iteration estimate of the spectral radius of `I − M⁻¹K` (see
