@@ -650,3 +650,28 @@ fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
     assert_eq!(cert.second_order.verdict, Verdict::Certified);
     assert!(cert.displacement < 1e-6, "{}", cert.displacement);
 }
+
+/// One evaluation at the start shared by the multipliers and Newton (what `certify` does)
+/// gives what the separate evaluations give, to the bit: the multipliers, every residual
+/// (the first being `kkt::residual` at the start), the converged point.
+#[test]
+fn a_shared_first_evaluation_changes_no_bit() {
+    let prob = Quadratic::oscillator(false);
+    let tr = oscillator_transcription(&prob, 2.0, 10);
+    let v0 = oscillator_extremal(&tr, 2.0);
+    let matrix = KktMatrix::new(&tr).expect("pattern");
+    let first = kkt::PrimalEvaluation::at(&tr, &v0);
+    let y_shared = kkt::least_squares_multipliers_at(&matrix, &first).expect("multipliers");
+    let y = kkt::least_squares_multipliers(&tr, &matrix, &v0).expect("multipliers");
+    assert_eq!(y_shared, y);
+    let start = KktPoint { v: v0, y };
+    let opts = NewtonOptions::default();
+    let (pt_shared, report_shared, _) =
+        kkt::newton_from(&tr, &matrix, start.clone(), first, &opts).expect("Newton");
+    let (pt, report, _) =
+        kkt::newton_keeping_factor(&tr, &matrix, start.clone(), &opts).expect("Newton");
+    assert_eq!(report_shared.residuals[0], kkt::residual(&tr, &start));
+    assert_eq!(report_shared.residuals, report.residuals);
+    assert!(report.residuals.len() >= 2, "a Newton step was taken");
+    assert_eq!(pt_shared, pt);
+}

@@ -41,7 +41,9 @@
 
 use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
-use super::kkt::{self, KktError, KktMatrix, KktPoint, KktResidual, NewtonOptions};
+use super::kkt::{
+    self, KktError, KktMatrix, KktPoint, KktResidual, NewtonOptions, PrimalEvaluation,
+};
 use super::problem::OcpProblem;
 use super::transcription::{Entry, Transcription};
 
@@ -840,11 +842,12 @@ pub fn certify<P: OcpProblem + ?Sized>(
         });
     }
     let matrix = KktMatrix::new(tr)?;
-    let y0 = kkt::least_squares_multipliers(tr, &matrix, &v0)?;
+    let first = PrimalEvaluation::at(tr, &v0);
+    let y0 = kkt::least_squares_multipliers_at(&matrix, &first)?;
     let start = KktPoint { v: v0, y: y0 };
-    let candidate = kkt::residual(tr, &start);
-    let (point, newton, near) =
-        kkt::newton_keeping_factor(tr, &matrix, start.clone(), newton_opts)?;
+    let (point, newton, near) = kkt::newton_from(tr, &matrix, start.clone(), first, newton_opts)?;
+    // Newton's first residual is the candidate's (`kkt::residual` at `start`).
+    let candidate = newton.residuals[0];
     let displacement = point
         .v
         .iter()

@@ -77,6 +77,30 @@ fn add_transpose_product(a: &[Entry], x: &[f64], y: &mut [f64]) {
     }
 }
 
+/// The first-order pieces of the KKT conditions at a primal point `v`, evaluated once and
+/// shared by the computations that need them there (least-squares multipliers, the first
+/// Newton iteration).
+#[derive(Debug, Clone, PartialEq)]
+pub struct PrimalEvaluation {
+    /// The constraint Jacobian `A = ∂c/∂v`.
+    pub jacobian: Vec<Entry>,
+    /// `∇J(v)`.
+    pub gradient: Vec<f64>,
+    /// `c(v)`.
+    pub constraints: Vec<f64>,
+}
+
+impl PrimalEvaluation {
+    /// The pieces at `v`.
+    pub fn at<P: OcpProblem + ?Sized>(tr: &Transcription<'_, P>, v: &[f64]) -> Self {
+        Self {
+            jacobian: tr.jacobian(v),
+            gradient: tr.gradient(v),
+            constraints: tr.constraints(v),
+        }
+    }
+}
+
 /// The KKT residual at `(v, y)`.
 pub fn residual<P: OcpProblem + ?Sized>(tr: &Transcription<'_, P>, pt: &KktPoint) -> KktResidual {
     let g = tr.gradient(&pt.v);
@@ -279,11 +303,24 @@ pub fn least_squares_multipliers<P: OcpProblem + ?Sized>(
     kkt: &KktMatrix,
     v: &[f64],
 ) -> Result<Vec<f64>, KktError> {
-    let (nv, nc) = (tr.n_var(), tr.n_con());
+    multipliers_from(kkt, &tr.jacobian(v), &tr.gradient(v))
+}
+
+/// [`least_squares_multipliers`] at the point of `eval`.
+pub fn least_squares_multipliers_at(
+    kkt: &KktMatrix,
+    eval: &PrimalEvaluation,
+) -> Result<Vec<f64>, KktError> {
+    multipliers_from(kkt, &eval.jacobian, &eval.gradient)
+}
+
+/// The least-squares multipliers from the Jacobian `a` and the gradient `g` at a point.
+fn multipliers_from(kkt: &KktMatrix, a: &[Entry], g: &[f64]) -> Result<Vec<f64>, KktError> {
+    let (nv, nc) = (kkt.n_var(), kkt.n_con());
     // [[I, Aᵀ], [A, 0]] [r; y] = [−∇J; 0]  ⇒  r = −∇J − Aᵀy with A r = 0.
-    let values = kkt.values_without_hessian(&vec![1.0; nv], &tr.jacobian(v));
+    let values = kkt.values_without_hessian(&vec![1.0; nv], a);
     let mut rhs = vec![0.0; nv + nc];
-    for (r, g) in rhs.iter_mut().zip(tr.gradient(v)) {
+    for (r, g) in rhs.iter_mut().zip(g) {
         *r = -g;
     }
     solve_kkt(kkt, &values, &mut rhs, "least-squares multipliers")?;
@@ -336,18 +373,38 @@ pub fn newton_keeping_factor<P: OcpProblem + ?Sized>(
     start: KktPoint,
     opts: &NewtonOptions,
 ) -> Result<(KktPoint, NewtonReport, Option<LbltFactor>), KktError> {
+    let first = PrimalEvaluation::at(tr, &start.v);
+    newton_from(tr, kkt, start, first, opts)
+}
+
+/// [`newton_keeping_factor`] given `first`, the [`PrimalEvaluation`] at `start.v` (already
+/// computed by the caller, e.g. for the least-squares multipliers). Its first residual
+/// (`residuals[0]` of the report) is [`residual`] at `start`, to the bit.
+pub fn newton_from<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    kkt: &KktMatrix,
+    start: KktPoint,
+    first: PrimalEvaluation,
+    opts: &NewtonOptions,
+) -> Result<(KktPoint, NewtonReport, Option<LbltFactor>), KktError> {
     let zeros = vec![0.0; tr.n_var()];
     let mut pt = start;
     let mut residuals = Vec::new();
     let mut last_factor = None;
     let mut it = 0;
+    let mut eval = Some(first);
     loop {
         // The residual as [`residual`] computes it, its pieces kept for the step.
-        let a = tr.jacobian(&pt.v);
-        let mut stationarity = tr.gradient(&pt.v);
+        let PrimalEvaluation {
+            jacobian: a,
+            gradient,
+            constraints,
+        } = eval
+            .take()
+            .unwrap_or_else(|| PrimalEvaluation::at(tr, &pt.v));
+        let mut stationarity = gradient;
         let gradient_scale = norm_inf(&stationarity);
         add_transpose_product(&a, &pt.y, &mut stationarity);
-        let constraints = tr.constraints(&pt.v);
         let res = KktResidual {
             stationarity: norm_inf(&stationarity),
             gradient_scale,
