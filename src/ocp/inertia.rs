@@ -537,7 +537,15 @@ impl SymmetricPattern {
                 }
             }
         }
-        let aug = Csr::from_pairs(n, &upper);
+        // Given groups give distinct pairs (`group_closed_pattern`): bucketed by column, each
+        // column's rows in no particular order, which faer's symbolic analysis accepts (it
+        // permutes the pattern to an unsorted one first). The expansion of the compressed
+        // graph repeats pairs: sorted and deduplicated.
+        let aug = if given_groups.is_some() {
+            Csr::buckets(n, &upper)
+        } else {
+            Csr::from_pairs(n, &upper)
+        };
         drop(upper);
         let (aug_col_ptr, aug_row_idx) = (aug.row_ptr, aug.col_idx);
         let NumericParts {
@@ -547,23 +555,32 @@ impl SymmetricPattern {
         } = numeric.join().map_err(|_| {
             InertiaError::Symbolic("internal error: the numeric pattern's thread panicked".into())
         })??;
-        // Every column of the numeric pattern is contained in the augmented one (both sorted:
-        // one merge per column).
+        // Every column of the numeric pattern is contained in the augmented one (each
+        // augmented column marked, then its numeric rows looked up).
+        let mut mark = vec![NONE; n];
         for c in 0..n {
-            let mut aug_rows = aug_row_idx[aug_col_ptr[c]..aug_col_ptr[c + 1]].iter();
+            for &a in &aug_row_idx[aug_col_ptr[c]..aug_col_ptr[c + 1]] {
+                mark[a] = c;
+            }
             for &r in &row_idx[col_ptr[c]..col_ptr[c + 1]] {
-                if !aug_rows.any(|&a| a == r) {
+                if mark[r] != c {
                     return Err(InertiaError::Symbolic(format!(
                         "internal error: entry ({r}, {c}) missing from the augmented pattern"
                     )));
                 }
             }
         }
+        drop(mark);
 
         let nnz_augmented = aug_row_idx.len();
         let symbolic = guarded("symbolic analysis", || {
-            let pattern =
-                SymbolicSparseColMatRef::new_checked(n, n, &aug_col_ptr, None, &aug_row_idx);
+            let pattern = SymbolicSparseColMatRef::new_unsorted_checked(
+                n,
+                n,
+                &aug_col_ptr,
+                None,
+                &aug_row_idx,
+            );
             let perm = PermRef::new_checked(&perm_fwd, &perm_inv, n);
             factorize_symbolic_cholesky(
                 pattern,
@@ -751,7 +768,8 @@ impl Csr {
 }
 
 /// The augmented pattern of given pivot groups, eliminated in their order (group `g` before
-/// `g + 1`), as `(col, row)` pairs with `row ≤ col` (unsorted, possibly repeated), such that
+/// `g + 1`), as distinct `(col, row)` pairs with `row ≤ col` (in no particular order; each
+/// pair comes from one pair of groups, and the groups partition the rows), such that
 /// the members of every group fall in one fundamental supernode of the factorization:
 ///
 /// - each group is a dense block (so member `j + 1` is the parent of member `j` in the
@@ -2188,6 +2206,61 @@ mod tests {
             if let Ok(f) = LbltFactor::factorize(&pattern, &s.values) {
                 let (expected, _, _) = dense_inertia(&dense(s.n, &s.entries, &s.values), 1e-10);
                 assert_eq!(f.inertia(), expected);
+            }
+        }
+    }
+
+    #[test]
+    fn the_group_closed_pattern_has_distinct_pairs_and_contains_the_matrix() {
+        // Its pairs go to faer unsorted and without deduplication: none may repeat, and every
+        // entry of the matrix must be among them.
+        let mut rng = XorShift64::new(11);
+        for seed in 0..8u64 {
+            let s = random_sym(80, 5, 90 + seed, |_, r| r.uniform(-1.0, 1.0));
+            let mut order: Vec<usize> = (0..s.n).collect();
+            for i in (1..s.n).rev() {
+                order.swap(i, below(&mut rng, i + 1));
+            }
+            let mut members = Vec::new();
+            let mut rest = &order[..];
+            while !rest.is_empty() {
+                let k = (1 + below(&mut rng, 6)).min(rest.len());
+                members.push(rest[..k].to_vec());
+                rest = &rest[k..];
+            }
+            let mut group = vec![NONE; s.n];
+            for (g, m) in members.iter().enumerate() {
+                for &i in m {
+                    group[i] = g;
+                }
+            }
+            let mut edges = Vec::new();
+            for &(r, c) in &s.entries {
+                if r != c {
+                    edges.push((r, c));
+                    edges.push((c, r));
+                }
+            }
+            let adj = Csr::buckets(s.n, &edges);
+            let mut upper = Vec::new();
+            group_closed_pattern(&adj, &group, &members, &mut upper);
+            let mut sorted = upper.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            assert_eq!(sorted.len(), upper.len(), "seed {seed}: a repeated pair");
+            assert!(upper.iter().all(|&(c, r)| r <= c));
+            for &(r, c) in &s.entries {
+                let pair = (r.max(c), r.min(c));
+                assert!(
+                    sorted.binary_search(&pair).is_ok(),
+                    "seed {seed}: {pair:?} missing"
+                );
+            }
+            for i in 0..s.n {
+                assert!(
+                    sorted.binary_search(&(i, i)).is_ok(),
+                    "seed {seed}: diagonal {i}"
+                );
             }
         }
     }
