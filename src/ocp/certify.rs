@@ -674,8 +674,10 @@ const LANCZOS_MAX_STEPS: usize = 60;
 /// The Lanczos method with a factorization of `K(σ)` that has no eigenvalue of the pencil
 /// below `σ`: an estimate `(μ̂, v̂)` of `μ_min` and its eigenvector (`M`-normalized, in
 /// `null(A)`), converged to a tenth of the bracket width `margin_rtol · |μ̂|` (by the
-/// residual bound of the Ritz value), or `None` (no convergence in [`LANCZOS_MAX_STEPS`]
-/// steps, or a failed solve). An estimate only: the caller confirms it by inertia counts.
+/// residual bound of the Ritz value, or the quadratic bound with the Ritz gap once that is
+/// smaller), or `None` (no convergence in [`LANCZOS_MAX_STEPS`] steps, or a failed solve). An
+/// estimate only: the caller confirms it by inertia counts, and an estimate that they reject
+/// costs the factorizations of the plain test, never a wrong bracket.
 ///
 /// The operator `S v = K(σ)⁻¹[M v; 0]` (the unknowns of the solution) is self-adjoint in the
 /// `M` inner product, with eigenvalues `1/(μ − σ) > 0` on `null(A)`, the largest
@@ -753,8 +755,25 @@ fn lanczos(
         let invariant = b.is_nan() || b <= 1e-13 * theta.abs();
         if theta > 0.0 && theta.is_finite() {
             let mu = sigma + 1.0 / theta;
-            // |θ − θ_true| ≤ b |s_k| for an eigenvalue θ_true; dμ = dθ / θ².
-            let err = b * s[k - 1].abs() / (theta * theta);
+            // |θ − θ_true| ≤ ρ = b |s_k| for an eigenvalue θ_true, and ≤ ρ²/δ with δ the gap
+            // from θ to the rest of the spectrum (Kato–Temple), estimated by the gap to the
+            // next Ritz value (which can overstate δ: Ritz values interlace the eigenvalues);
+            // dμ = dθ / θ².
+            let rho = b * s[k - 1].abs();
+            let next = eig
+                .eigenvalues
+                .iter()
+                .enumerate()
+                .filter(|&(i, _)| i != top)
+                .fold(f64::NEG_INFINITY, |m, (_, &x)| m.max(x));
+            let gap = theta - next;
+            // (No gap before the second step: `next` is then −∞.)
+            let bound = if gap > 0.0 && gap.is_finite() {
+                rho.min(rho * rho / gap)
+            } else {
+                rho
+            };
+            let err = bound / (theta * theta);
             if invariant || err <= 0.1 * margin_rtol * mu.abs() {
                 // S x / θ for the Ritz vector x = Σ s_i q_i.
                 let mut v = vec![0.0; kkt.n_var];
