@@ -183,11 +183,16 @@ impl<'k> ShiftedKkt<'k> {
     }
 
     fn factorize(&self, sigma: f64) -> Result<LbltFactor, InertiaError> {
+        self.kkt.factorize(&self.shifted(sigma))
+    }
+
+    /// The values of `K(σ)`.
+    fn shifted(&self, sigma: f64) -> Vec<f64> {
         let mut values = self.values.clone();
         for (v, d) in values.iter_mut().zip(&self.metric) {
             *v -= sigma * d;
         }
-        self.kkt.factorize(&values)
+        values
     }
 
     /// `aᵀ M b`.
@@ -258,16 +263,37 @@ impl<'k> ShiftedKkt<'k> {
         sigma: f64,
         used: &mut usize,
     ) -> Result<Option<(f64, usize, LbltFactor)>, SecondOrderError> {
+        Ok(self
+            .count_while(sigma, used, |_, _, _| ())?
+            .map(|(s, c, factor, _)| (s, c, factor)))
+    }
+
+    /// [`Self::count`], with `work(σ, count, factor)` done with each factorization that gives
+    /// a count, while the checks that prove the count run ([`KktMatrix::factorize_while`]).
+    /// The result of the work on the factorization returned comes with it (`Some`: the count
+    /// is read from the same pivots before and after the checks).
+    fn count_while<T>(
+        &self,
+        sigma: f64,
+        used: &mut usize,
+        mut work: impl FnMut(f64, usize, &LbltFactor) -> T,
+    ) -> Result<Option<(f64, usize, LbltFactor, Option<T>)>, SecondOrderError> {
         for s in [
             sigma,
             sigma * (1.0 + 1e-7) + 1e-12,
             sigma * (1.0 - 1e-7) - 1e-12,
         ] {
             *used += 1;
-            match self.factorize(s) {
-                Ok(factor) => {
+            let counted = self.kkt.factorize_while(&self.shifted(s), |factor| {
+                match self.excess(factor.inertia()) {
+                    Ok(Some(c)) => Some(work(s, c, factor)),
+                    _ => None,
+                }
+            });
+            match counted {
+                Ok((factor, out)) => {
                     if let Some(c) = self.excess(factor.inertia())? {
-                        return Ok(Some((s, c, factor)));
+                        return Ok(Some((s, c, factor, out)));
                     }
                 }
                 Err(InertiaError::Breakdown { .. }) => {}
@@ -382,7 +408,12 @@ fn certified_from_estimate(
     if mu - h <= 0.0 || mu.is_nan() || *used + 1 > opts.max_factorizations {
         return Ok(None);
     }
-    let Some((lo, 0, factor)) = kkt.count(mu - h, used)? else {
+    // The weakest direction by inverse iteration from the estimate, with the factorization
+    // whose count is being proven, while it is.
+    let counted = kkt.count_while(mu - h, used, |s, c, factor| {
+        (c == 0 && s > 0.0).then(|| inverse_iteration(kkt, factor, vector.clone(), true))
+    })?;
+    let Some((lo, 0, factor, weakest)) = counted else {
         return Ok(None);
     };
     if lo <= 0.0 {
@@ -405,11 +436,11 @@ fn certified_from_estimate(
         weakest_direction: None,
         weakest_rayleigh: None,
     };
+    drop(factor);
     let bracket = match upper_end(
         kkt,
         lo,
-        factor,
-        vector,
+        weakest.flatten().flatten(),
         mu + h,
         opts,
         &mut report.factorizations,
@@ -556,9 +587,14 @@ fn margin(
         drop(base);
         let h = 0.45 * opts.margin_rtol * mu.abs();
         if mu - h > lo && *used < opts.max_factorizations {
-            match kkt.count(mu - h, used)? {
-                Some((s_lo, 0, factor)) => {
-                    match upper_end(kkt, s_lo, factor, vector, mu + h, opts, used)? {
+            let counted = kkt.count_while(mu - h, used, |_, c, factor| {
+                (c == 0).then(|| inverse_iteration(kkt, factor, vector.clone(), true))
+            })?;
+            match counted {
+                Some((s_lo, 0, factor, weakest)) => {
+                    drop(factor);
+                    let weakest = weakest.flatten().flatten();
+                    match upper_end(kkt, s_lo, weakest, mu + h, opts, used)? {
                         Ok(bracket) => return Ok(Some(bracket)),
                         Err((l, u)) => {
                             lo = l;
@@ -566,7 +602,7 @@ fn margin(
                         }
                     }
                 }
-                Some((s_lo, _, _)) => hi = Some(s_lo),
+                Some((s_lo, _, _, _)) => hi = Some(s_lo),
                 None => {}
             }
         }
@@ -575,11 +611,11 @@ fn margin(
     bisect(kkt, lo, hi, opts, used)
 }
 
-/// The upper end of a bracket whose lower end `lo` is proven by the count of `factor` (no
-/// eigenvalue below it), from `estimate`, an estimate of the eigenvector of `μ_min`.
+/// The upper end of a bracket whose lower end `lo` is proven by a count (no eigenvalue below
+/// it), from `weakest`: the eigenvector `v` of `μ_min` and its Rayleigh quotient, found by
+/// inverse iteration from an estimate with the factorization of that count.
 ///
-/// Inverse iteration with `factor` gives the eigenvector `v`, in `null(A)` up to rounding, and
-/// its Rayleigh quotient `q = vᵀHv / vᵀMv`, an upper bound of `μ_min` (Courant–Fischer:
+/// The eigenvector `v` is in `null(A)` up to rounding, and its Rayleigh quotient `q = vᵀHv / vᵀMv`, an upper bound of `μ_min` (Courant–Fischer:
 /// `μ_min` is the smallest such quotient over `null(A)`). It is the upper end when `v` is in
 /// `null(A)` to [`NULL_SPACE_RTOL`] and `[lo, q]` is as narrow as asked; otherwise the count
 /// at `probe` (the estimate's `μ̂ + h`) must find an eigenvalue below it. When neither closes
@@ -587,15 +623,12 @@ fn margin(
 fn upper_end(
     kkt: &ShiftedKkt,
     lo: f64,
-    factor: LbltFactor,
-    estimate: Vec<f64>,
+    weakest: Option<(Vec<f64>, f64)>,
     probe: f64,
     opts: &SecondOrderOptions,
     used: &mut usize,
 ) -> Result<Result<Bracket, (f64, Option<f64>)>, SecondOrderError> {
     let narrow = |lo: f64, hi: f64| hi - lo <= opts.margin_rtol * lo.abs().max(hi.abs());
-    let weakest = inverse_iteration(kkt, &factor, estimate, true);
-    drop(factor);
     if let Some((v, q)) = &weakest {
         if q.is_finite()
             && *q >= lo

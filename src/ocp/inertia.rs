@@ -1006,11 +1006,37 @@ impl LbltFactor {
         Self::factorize_checked(pattern, values, Checks::Nothing)
     }
 
+    /// [`LbltFactor::factorize`], running `work` with the factorization on this thread while
+    /// the contraction estimate that proves its inertia runs on another. `work` sees factors
+    /// that are not yet checked; its result is returned only with a factorization that passed
+    /// the checks (otherwise the error, as [`LbltFactor::factorize`] gives it).
+    ///
+    /// For work that needs the factors in any case, such as solves at a shift whose count
+    /// is about to be confirmed: it then costs no time of its own up to the estimate's.
+    pub fn factorize_while<T>(
+        pattern: &SymmetricPattern,
+        values: &[f64],
+        work: impl FnOnce(&Self) -> T,
+    ) -> Result<(Self, T), InertiaError> {
+        Self::factorize_checked_with(pattern, values, Checks::Proof, work)
+    }
+
     fn factorize_checked(
         pattern: &SymmetricPattern,
         values: &[f64],
         checks: Checks,
     ) -> Result<Self, InertiaError> {
+        Self::factorize_checked_with(pattern, values, checks, |_| ()).map(|(factor, ())| factor)
+    }
+
+    /// The numeric factorization, `checks`, and `work` with the factors (after the test
+    /// solve, concurrently with the contraction estimate of a proof).
+    fn factorize_checked_with<T>(
+        pattern: &SymmetricPattern,
+        values: &[f64],
+        checks: Checks,
+        work: impl FnOnce(&Self) -> T,
+    ) -> Result<(Self, T), InertiaError> {
         let p = &*pattern.inner;
         let n = p.n;
         if values.len() != p.entry_pos.len() {
@@ -1220,24 +1246,27 @@ impl LbltFactor {
         };
 
         if checks == Checks::Nothing {
-            return Ok(factor);
+            let out = work(&factor);
+            return Ok((factor, out));
         }
-        // The test solve and, for a proof, the contraction estimate: independent computations
-        // with the same factors, on two threads.
-        let (test, contraction) = if checks == Checks::Proof {
+        // The test solve (then `work`) and, for a proof, the contraction estimate: independent
+        // computations with the same factors, on two threads.
+        let (test, contraction, out) = if checks == Checks::Proof {
             let factor = &factor;
             std::thread::scope(|scope| {
                 let contraction = scope.spawn(|| factor.estimate_contraction());
                 let test = factor.test_solve();
+                let out = work(factor);
                 let contraction = contraction.join().unwrap_or_else(|_| {
                     Err(InertiaError::Internal(
                         "the contraction estimate's thread panicked".into(),
                     ))
                 });
-                (test, Some(contraction))
+                (test, Some(contraction), out)
             })
         } else {
-            (factor.test_solve(), None)
+            let test = factor.test_solve();
+            (test, None, work(&factor))
         };
         let (berr, steps) = test?;
         factor.backward_error = berr;
@@ -1253,7 +1282,7 @@ impl LbltFactor {
             return if berr.is_nan() {
                 Err(unreliable(&factor))
             } else {
-                Ok(factor)
+                Ok((factor, out))
             };
         }
         if let Some(contraction) = contraction {
@@ -1269,7 +1298,7 @@ impl LbltFactor {
         if pivot_zeros == 0 && (rho.is_nan() || rho > CONTRACTION_TOL) {
             return Err(unreliable(&factor));
         }
-        Ok(factor)
+        Ok((factor, out))
     }
 
     /// Dimension `n` of the matrix.
@@ -2208,6 +2237,40 @@ mod tests {
                 assert_eq!(f.inertia(), expected);
             }
         }
+    }
+
+    #[test]
+    fn work_done_while_the_checks_run_sees_the_factors_that_pass_them() {
+        let s = random_sym(120, 6, 77, |_, r| r.uniform(-1.0, 1.0));
+        let pattern = SymmetricPattern::new(s.n, &s.entries).unwrap();
+        let rhs: Vec<f64> = (0..s.n).map(|i| (i as f64 * 0.37).sin()).collect();
+        let plain = LbltFactor::factorize(&pattern, &s.values).unwrap();
+        let mut expected = rhs.clone();
+        plain.solve_in_place_unrefined(&mut expected).unwrap();
+        let (factor, (inertia, solved)) = LbltFactor::factorize_while(&pattern, &s.values, |f| {
+            let mut x = rhs.clone();
+            f.solve_in_place_unrefined(&mut x).unwrap();
+            (f.inertia(), x)
+        })
+        .unwrap();
+        assert_eq!(inertia, plain.inertia());
+        assert_eq!(factor.inertia(), plain.inertia());
+        assert_eq!(solved, expected);
+        assert_eq!(
+            factor.backward_error().to_bits(),
+            plain.backward_error().to_bits()
+        );
+        assert_eq!(
+            factor.contraction().to_bits(),
+            plain.contraction().to_bits()
+        );
+        // A factorization that fails gives its error, not the work.
+        let mut bad = s.values.clone();
+        bad[3] = f64::NAN;
+        let mut ran = false;
+        let failed = LbltFactor::factorize_while(&pattern, &bad, |_| ran = true);
+        assert!(matches!(failed, Err(InertiaError::NonFiniteValue { .. })));
+        assert!(!ran);
     }
 
     #[test]

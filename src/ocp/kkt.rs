@@ -245,6 +245,16 @@ impl KktMatrix {
         LbltFactor::factorize(&self.pattern, values)
     }
 
+    /// [`KktMatrix::factorize`], with `work` done with the factors while their checks run
+    /// ([`LbltFactor::factorize_while`]).
+    pub fn factorize_while<T>(
+        &self,
+        values: &[f64],
+        work: impl FnOnce(&LbltFactor) -> T,
+    ) -> Result<(LbltFactor, T), InertiaError> {
+        LbltFactor::factorize_while(&self.pattern, values, work)
+    }
+
     /// A factorization of the matrix with `values` for solves only
     /// ([`LbltFactor::factorize_for_solve`]: each solve's backward error is the check).
     pub fn factorize_for_solve(&self, values: &[f64]) -> Result<LbltFactor, InertiaError> {
