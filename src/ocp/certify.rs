@@ -146,6 +146,10 @@ pub enum SecondOrderError {
     },
 }
 
+/// A count of [`ShiftedKkt::count_while`]: the shift used, the number of eigenvalues of the
+/// pencil below it, its factorization, and the work done with that factorization.
+type Counted<T> = (f64, usize, LbltFactor, Option<T>);
+
 /// The shifted KKT matrices `K(σ)` of one point.
 struct ShiftedKkt<'k> {
     kkt: &'k KktMatrix,
@@ -277,7 +281,7 @@ impl<'k> ShiftedKkt<'k> {
         sigma: f64,
         used: &mut usize,
         mut work: impl FnMut(f64, usize, &LbltFactor) -> T,
-    ) -> Result<Option<(f64, usize, LbltFactor, Option<T>)>, SecondOrderError> {
+    ) -> Result<Option<Counted<T>>, SecondOrderError> {
         for s in [
             sigma,
             sigma * (1.0 + 1e-7) + 1e-12,
