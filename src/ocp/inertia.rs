@@ -396,22 +396,24 @@ impl SymmetricPattern {
         given_groups: Option<&[Vec<usize>]>,
         numeric: std::thread::ScopedJoinHandle<'_, NumericPattern>,
     ) -> Result<Self, InertiaError> {
-        // Off-diagonal adjacency (both directions): sorted and deduplicated for the matching
-        // and the compressed graph; given groups only need each row's neighbours
-        // (`group_closed_pattern`), in any order.
-        let mut edges: Vec<(usize, usize)> = Vec::with_capacity(2 * entries.len());
-        for &(row, col) in entries {
-            if row != col {
-                edges.push((row, col));
-                edges.push((col, row));
-            }
-        }
+        // Off-diagonal adjacency (both directions), sorted and deduplicated, for the matching
+        // and the compressed graph (given groups need neither: `group_closed_pattern` reads
+        // the entries).
         let adj = if given_groups.is_some() {
-            Csr::buckets(n, &edges)
+            Csr {
+                row_ptr: vec![0; n + 1],
+                col_idx: Vec::new(),
+            }
         } else {
+            let mut edges: Vec<(usize, usize)> = Vec::with_capacity(2 * entries.len());
+            for &(row, col) in entries {
+                if row != col {
+                    edges.push((row, col));
+                    edges.push((col, row));
+                }
+            }
             Csr::from_pairs(n, &edges)
         };
-        drop(edges);
 
         // Pair structurally zero-diagonal rows with neighbours; a zero-diagonal row left
         // unmatched joins the group of one of its neighbours (all of them are grouped, as the
@@ -523,7 +525,7 @@ impl SymmetricPattern {
         if given_groups.is_some() {
             // Given groups (eliminated in their order, members in theirs): see
             // `group_closed_pattern`.
-            group_closed_pattern(&adj, &group, &members, &mut upper);
+            group_closed_pattern(entries, &group, &members, &mut upper);
         } else {
             // Expansion of the compressed graph: all members of adjacent groups are adjacent.
             for ga in 0..n_groups {
@@ -788,7 +790,7 @@ impl Csr {
 /// a later group that no member of `g` touches (for a collocation KKT matrix whose interval
 /// groups list their constraints first, the next interval's unknowns).
 fn group_closed_pattern(
-    adj: &Csr,
+    entries: &[(usize, usize)],
     group: &[usize],
     members: &[Vec<usize>],
     upper: &mut Vec<(usize, usize)>,
@@ -800,6 +802,19 @@ fn group_closed_pattern(
             pos[i] = k;
         }
     }
+    // The entries between two groups, as (earlier group, row of the later one), bucketed by
+    // the earlier group: what each group touches later.
+    let mut cross: Vec<(usize, usize)> = Vec::new();
+    for &(r, c) in entries {
+        let (gr, gc) = (group[r], group[c]);
+        if gr < gc {
+            cross.push((gr, c));
+        } else if gc < gr {
+            cross.push((gc, r));
+        }
+    }
+    let later = Csr::buckets(members.len(), &cross);
+    drop(cross);
     // For every group: the later groups its members touch, and how far into each (found
     // once; the pairs are then counted, so that `upper`, millions of pairs on a fine mesh,
     // is allocated once instead of growing by copies).
@@ -811,17 +826,13 @@ fn group_closed_pattern(
     for (g, m) in members.iter().enumerate() {
         first.push(reaches.len());
         count += m.len() * (m.len() + 1) / 2;
-        for &i in m {
-            for &w in adj.row(i) {
-                let gw = group[w];
-                if gw > g {
-                    if reach[gw] == NONE {
-                        touched.push(gw);
-                        reach[gw] = pos[w];
-                    } else {
-                        reach[gw] = reach[gw].max(pos[w]);
-                    }
-                }
+        for &w in later.row(g) {
+            let gw = group[w];
+            if reach[gw] == NONE {
+                touched.push(gw);
+                reach[gw] = pos[w];
+            } else {
+                reach[gw] = reach[gw].max(pos[w]);
             }
         }
         for &gw in &touched {
@@ -2297,16 +2308,8 @@ mod tests {
                     group[i] = g;
                 }
             }
-            let mut edges = Vec::new();
-            for &(r, c) in &s.entries {
-                if r != c {
-                    edges.push((r, c));
-                    edges.push((c, r));
-                }
-            }
-            let adj = Csr::buckets(s.n, &edges);
             let mut upper = Vec::new();
-            group_closed_pattern(&adj, &group, &members, &mut upper);
+            group_closed_pattern(&s.entries, &group, &members, &mut upper);
             let mut sorted = upper.clone();
             sorted.sort_unstable();
             sorted.dedup();
