@@ -603,11 +603,21 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
     /// end conditions. The constraints come first in their group because they are all that an
     /// earlier group touches (through the interval's first point, `z_{3k}`), and `T` first
     /// in the last: the factor of a group then reaches into the next one only by its
-    /// constraints (see [`super::inertia::SymmetricPattern::with_groups`]). Each interval's group is itself a small KKT matrix whose constraint block
-    /// `∂c_k/∂x_k ≈ I` has full rank, so Bunch–Kaufman inside the group always finds good
-    /// `1 × 1` or `2 × 2` pivots (a state with the constraint that determines it), the fill
-    /// stays banded, and the factorization runs forward in time like a null-space method:
-    /// what the constraints leave behind are the controls, the free initial data and `T`.
+    /// constraints (see [`super::inertia::SymmetricPattern::with_groups`]). Each interval's
+    /// group is itself a small KKT matrix whose constraint block `∂c_k/∂x_k ≈ I` has full
+    /// rank, so Bunch–Kaufman inside the group always finds good `1 × 1` or `2 × 2` pivots (a
+    /// state with the constraint that determines it), the fill stays banded, and the
+    /// factorization runs forward in time like a null-space method: what the constraints
+    /// leave behind are the controls, the free initial data and `T`.
+    ///
+    /// Why the interval's end point stays in its group: moved to the head of the next group,
+    /// it would be the only thing an earlier group touches (`nz` rows instead of `3n`; 14 %
+    /// fewer factor values on the paper's meshes), but every leading block of the elimination
+    /// would then be the problem with its end state held fixed. Where the dynamics conserve
+    /// a quantity (Suslov's energy) that problem's constraints are dependent, and each group
+    /// gave a zero pivot: measured on the paper's η = 0.01 case, 274 zero eigenvalues for
+    /// 278 intervals, the certificate degenerate; η = 1, an unreliable factorization. With the
+    /// end point in its own group the leading blocks leave the end state free.
     pub fn kkt_pivot_groups(&self) -> Vec<Vec<usize>> {
         let (n, nz, nv) = (self.n, self.nz(), self.n_var());
         let n_int = self.n_intervals();
