@@ -521,12 +521,15 @@ impl SymmetricPattern {
         }
 
         // Augmented upper pattern, which contains the user pattern and the whole diagonal.
-        let mut upper: Vec<(usize, usize)> = Vec::new();
-        if given_groups.is_some() {
-            // Given groups (eliminated in their order, members in theirs): see
-            // `group_closed_pattern`.
-            group_closed_pattern(entries, &group, &members, &mut upper);
+        // Given groups (eliminated in their order, members in theirs; see
+        // `group_closed_pattern`) give distinct pairs, each column's rows in no particular
+        // order, which faer's symbolic analysis accepts (it permutes the pattern to an
+        // unsorted one first). The expansion of the compressed graph repeats pairs: sorted
+        // and deduplicated.
+        let aug = if given_groups.is_some() {
+            group_closed_pattern(entries, &group, &members)
         } else {
+            let mut upper: Vec<(usize, usize)> = Vec::new();
             // Expansion of the compressed graph: all members of adjacent groups are adjacent.
             for ga in 0..n_groups {
                 for &gb in comp.row(ga) {
@@ -538,17 +541,8 @@ impl SymmetricPattern {
                     }
                 }
             }
-        }
-        // Given groups give distinct pairs (`group_closed_pattern`): bucketed by column, each
-        // column's rows in no particular order, which faer's symbolic analysis accepts (it
-        // permutes the pattern to an unsorted one first). The expansion of the compressed
-        // graph repeats pairs: sorted and deduplicated.
-        let aug = if given_groups.is_some() {
-            Csr::buckets(n, &upper)
-        } else {
             Csr::from_pairs(n, &upper)
         };
-        drop(upper);
         let (aug_col_ptr, aug_row_idx) = (aug.row_ptr, aug.col_idx);
         let NumericParts {
             col_ptr,
@@ -770,8 +764,8 @@ impl Csr {
 }
 
 /// The augmented pattern of given pivot groups, eliminated in their order (group `g` before
-/// `g + 1`), as distinct `(col, row)` pairs with `row ≤ col` (in no particular order; each
-/// pair comes from one pair of groups, and the groups partition the rows), such that
+/// `g + 1`), as the distinct rows `row ≤ col` of each column `col` (in no particular order:
+/// each pair comes from one pair of groups, and the groups partition the rows), such that
 /// the members of every group fall in one fundamental supernode of the factorization:
 ///
 /// - each group is a dense block (so member `j + 1` is the parent of member `j` in the
@@ -793,8 +787,7 @@ fn group_closed_pattern(
     entries: &[(usize, usize)],
     group: &[usize],
     members: &[Vec<usize>],
-    upper: &mut Vec<(usize, usize)>,
-) {
+) -> Csr {
     let n = group.len();
     let mut pos = vec![0usize; n];
     for m in members {
@@ -815,17 +808,13 @@ fn group_closed_pattern(
     }
     let later = Csr::buckets(members.len(), &cross);
     drop(cross);
-    // For every group: the later groups its members touch, and how far into each (found
-    // once; the pairs are then counted, so that `upper`, millions of pairs on a fine mesh,
-    // is allocated once instead of growing by copies).
+    // For every group: the later groups its members touch, and how far into each.
     let mut reach = vec![NONE; members.len()];
     let mut touched: Vec<usize> = Vec::new();
     let mut reaches: Vec<(usize, usize)> = Vec::new();
     let mut first = Vec::with_capacity(members.len() + 1);
-    let mut count = 0;
-    for (g, m) in members.iter().enumerate() {
+    for g in 0..members.len() {
         first.push(reaches.len());
-        count += m.len() * (m.len() + 1) / 2;
         for &w in later.row(g) {
             let gw = group[w];
             if reach[gw] == NONE {
@@ -836,30 +825,45 @@ fn group_closed_pattern(
             }
         }
         for &gw in &touched {
-            count += (reach[gw] + 1) * m.len();
             reaches.push((gw, reach[gw]));
             reach[gw] = NONE;
         }
         touched.clear();
     }
     first.push(reaches.len());
-    upper.reserve(count);
-    for (g, m) in members.iter().enumerate() {
-        for &i in m {
-            for &j in m {
-                if j <= i {
-                    upper.push((i, j));
-                }
-            }
-        }
-        for &(gw, last) in &reaches[first[g]..first[g + 1]] {
-            for &r in &members[gw][..=last] {
+    // Every pair `(col, row)`, generated twice: counted by column, then placed (no list of
+    // pairs: a million of them on a fine mesh, and fresh memory costs page faults).
+    let pairs = |f: &mut dyn FnMut(usize, usize)| {
+        for (g, m) in members.iter().enumerate() {
+            for &i in m {
                 for &j in m {
-                    upper.push((r.max(j), r.min(j)));
+                    if j <= i {
+                        f(i, j);
+                    }
+                }
+            }
+            for &(gw, last) in &reaches[first[g]..first[g + 1]] {
+                for &r in &members[gw][..=last] {
+                    for &j in m {
+                        f(r.max(j), r.min(j));
+                    }
                 }
             }
         }
+    };
+    let n = group.len();
+    let mut row_ptr = vec![0usize; n + 1];
+    pairs(&mut |c, _| row_ptr[c + 1] += 1);
+    for i in 0..n {
+        row_ptr[i + 1] += row_ptr[i];
     }
+    let mut next = row_ptr[..n].to_vec();
+    let mut col_idx = vec![0usize; row_ptr[n]];
+    pairs(&mut |c, r| {
+        col_idx[next[c]] = r;
+        next[c] += 1;
+    });
+    Csr { row_ptr, col_idx }
 }
 
 /// Partner of each row (`NONE` if unpaired): rows without structural diagonal are matched
@@ -2308,8 +2312,10 @@ mod tests {
                     group[i] = g;
                 }
             }
-            let mut upper = Vec::new();
-            group_closed_pattern(&s.entries, &group, &members, &mut upper);
+            let aug = group_closed_pattern(&s.entries, &group, &members);
+            let upper: Vec<(usize, usize)> = (0..s.n)
+                .flat_map(|c| aug.row(c).iter().map(move |&r| (c, r)))
+                .collect();
             let mut sorted = upper.clone();
             sorted.sort_unstable();
             sorted.dedup();
