@@ -2203,6 +2203,22 @@ mod tests {
         assert!(t_factor.as_secs_f64() < 2.0);
     }
 
+    /// `0..n` shuffled and cut into groups of 1 to 6 rows.
+    fn random_partition(n: usize, rng: &mut XorShift64) -> Vec<Vec<usize>> {
+        let mut order: Vec<usize> = (0..n).collect();
+        for i in (1..n).rev() {
+            order.swap(i, below(rng, i + 1));
+        }
+        let mut groups = Vec::new();
+        let mut rest = &order[..];
+        while !rest.is_empty() {
+            let k = (1 + below(rng, 6)).min(rest.len());
+            groups.push(rest[..k].to_vec());
+            rest = &rest[k..];
+        }
+        groups
+    }
+
     #[test]
     fn given_groups_stay_in_supernodes() {
         // Time-ordered groups (a block, or two, per group) with their members shuffled: the
@@ -2235,17 +2251,7 @@ mod tests {
         // Arbitrary patterns and partitions: the analysis never splits a group.
         for seed in 0..8u64 {
             let s = random_sym(90, 5, 60 + seed, |_, r| r.uniform(-1.0, 1.0));
-            let mut order: Vec<usize> = (0..s.n).collect();
-            for i in (1..s.n).rev() {
-                order.swap(i, below(&mut rng, i + 1));
-            }
-            let mut groups = Vec::new();
-            let mut rest = &order[..];
-            while !rest.is_empty() {
-                let k = (1 + below(&mut rng, 6)).min(rest.len());
-                groups.push(rest[..k].to_vec());
-                rest = &rest[k..];
-            }
+            let groups = random_partition(s.n, &mut rng);
             let pattern = SymmetricPattern::with_groups(s.n, &s.entries, &groups).unwrap();
             if let Ok(f) = LbltFactor::factorize(&pattern, &s.values) {
                 let (expected, _, _) = dense_inertia(&dense(s.n, &s.entries, &s.values), 1e-10);
@@ -2295,17 +2301,7 @@ mod tests {
         let mut rng = XorShift64::new(11);
         for seed in 0..8u64 {
             let s = random_sym(80, 5, 90 + seed, |_, r| r.uniform(-1.0, 1.0));
-            let mut order: Vec<usize> = (0..s.n).collect();
-            for i in (1..s.n).rev() {
-                order.swap(i, below(&mut rng, i + 1));
-            }
-            let mut members = Vec::new();
-            let mut rest = &order[..];
-            while !rest.is_empty() {
-                let k = (1 + below(&mut rng, 6)).min(rest.len());
-                members.push(rest[..k].to_vec());
-                rest = &rest[k..];
-            }
+            let members = random_partition(s.n, &mut rng);
             let mut group = vec![NONE; s.n];
             for (g, m) in members.iter().enumerate() {
                 for &i in m {
