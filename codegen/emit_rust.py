@@ -179,6 +179,7 @@ class Function:
     args: list
     outputs: list
     samples: list = field(default_factory=list)  # filled by the generator
+    wide: bool = False  # also compiled for AVX2 (set by `emit_function`)
 
 
 def rust_ident(sym):
@@ -305,8 +306,51 @@ def doc_lines(fn):
     return lines
 
 
+# Functions with at least this many intermediate quantities are also compiled for AVX2 and
+# choose that copy at run time: the three-operand VEX forms and the wider registers spare many
+# of the register copies and spills of a long straight-line body (the Jacobians of the
+# optimality system: 743 intermediates for so(3)). The operations and their order are the
+# same in both copies, and Rust never fuses a multiply and an add, so both give the same bits
+# (`check_vectors` compares them bit for bit).
+WIDE_MIN_TEMPORARIES = 100
+
+
+def call_args(fn):
+    return ", ".join([a.name for a in fn.args] + [o.name for o in fn.outputs if o.kind != "return"])
+
+
 def emit_function(fn):
-    return "\n".join(doc_lines(fn) + [signature(fn) + " {"] + emit_body(fn) + ["}"])
+    body = emit_body(fn)
+    n_temps = sum(1 for line in body if line.lstrip().startswith("t["))
+    head = signature(fn)
+    fn.wide = n_temps >= WIDE_MIN_TEMPORARIES
+    if not fn.wide:
+        return "\n".join(doc_lines(fn) + [head + " {"] + body + ["}"])
+    params = head[len(f"pub fn {fn.name}"):]
+    args = call_args(fn)
+    dispatch = [
+        head + " {",
+        '    #[cfg(target_arch = "x86_64")]',
+        '    if std::arch::is_x86_feature_detected!("avx2") {',
+        "        // SAFETY: the CPU supports AVX2, checked just above.",
+        f"        return unsafe {{ {fn.name}_avx2({args}) }};",
+        "    }",
+        f"    {fn.name}_portable({args})",
+        "}",
+        "",
+        f"/// [`{fn.name}`] compiled for AVX2.",
+        '#[cfg(target_arch = "x86_64")]',
+        '#[target_feature(enable = "avx2")]',
+        f"fn {fn.name}_avx2{params} {{",
+        f"    {fn.name}_portable({args})",
+        "}",
+        "",
+        f"/// [`{fn.name}`] as it runs on a CPU without AVX2 (the same operations in the same order;",
+        "/// public for the check that both copies give the same bits).",
+        "#[inline(always)]",
+        f"pub fn {fn.name}_portable{params} {{",
+    ]
+    return "\n".join(doc_lines(fn) + dispatch + body + ["}"])
 
 
 def fmt_f64(v):
@@ -363,6 +407,30 @@ def emit_vector_checks(functions):
                 lines.append(f"        {invocation};")
             chain = got[0] + "".join(f".chain({g})" for g in got[1:])
             lines.append(f"        let got: Vec<f64> = {chain}.collect();")
+            if fn.wide:
+                # The portable copy, into fresh outputs: the same bits.
+                for o in fn.outputs:
+                    if o.kind == "array":
+                        lines.append(f"        let mut {o.name} = [0.0f64; {len(o.exprs)}];")
+                    elif o.kind == "matrix":
+                        r, c = o.exprs.shape
+                        lines.append(f"        let mut {o.name} = [[f64::NAN; {c}]; {r}];")
+                # The inputs through `black_box`: the inlined portable copy must run, not be
+                # folded at compile time (LLVM folds `powi(x, 3)` with one rounding, not two).
+                for a in fn.args:
+                    lines.append(f"        let {a.name} = std::hint::black_box({a.name});")
+                portable = f"{fn.name}_portable({', '.join(call)})"
+                if ret:
+                    lines.append(f"        let {ret} = {portable};")
+                else:
+                    lines.append(f"        {portable};")
+                lines.append(f"        let portable: Vec<f64> = {chain}.collect();")
+                lines.append("        for (i, (fast, slow)) in got.iter().zip(&portable).enumerate() {")
+                lines.append("            if fast.to_bits() != slow.to_bits() {")
+                lines.append(f"                failures.push(format!(\"{fn.name} sample {k} output {{i}}: "
+                             "{fast:e} here, {slow:e} from the portable copy\"));")
+                lines.append("            }")
+                lines.append("        }")
             lines.append(f"        let expected: [f64; {len(expected)}] = "
                          f"[{', '.join(fmt_f64(v) for v in expected)}];")
             lines.append("        assert_eq!(got.len(), expected.len());")
