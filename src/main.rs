@@ -402,7 +402,39 @@ fn points_arg(text: &str) -> Result<usize, String> {
         .map_err(|e| e.to_string())
 }
 
+/// glibc's `mallopt` parameters (`malloc.h`).
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+mod malloc_policy {
+    const M_TRIM_THRESHOLD: i32 = -1;
+    const M_TOP_PAD: i32 = -2;
+    const M_MMAP_THRESHOLD: i32 = -3;
+
+    extern "C" {
+        fn mallopt(param: i32, value: i32) -> i32;
+    }
+
+    /// Keep freed memory in the process instead of returning it to the kernel: blocks up to
+    /// 32 MiB (glibc's largest threshold) come from the heap, not from `mmap` of their own,
+    /// the heap is trimmed only above 256 MiB free at its top, and it grows by 64 MiB at a
+    /// time. A run factors,
+    /// frees and factors again matrices of the same sizes; memory handed back is faulted in
+    /// afresh at 2 µs a page on these machines, and a fresh process's first certificate
+    /// touched some 13 000 pages. The peak is unchanged (what a run uses at once); a process
+    /// that exits gives everything back anyway. Measured: bench/README.md, session 24.
+    pub(super) fn keep_freed_memory() {
+        // SAFETY: `mallopt` is glibc's, called before any other thread exists, with
+        // parameters and values it documents; a refused value leaves the default in place.
+        unsafe {
+            mallopt(M_MMAP_THRESHOLD, 32 << 20);
+            mallopt(M_TRIM_THRESHOLD, 256 << 20);
+            mallopt(M_TOP_PAD, 64 << 20);
+        }
+    }
+}
+
 fn main() -> ExitCode {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    malloc_policy::keep_freed_memory();
     let cli = Cli::parse();
     install_signal_handlers();
     if cli.verbose && !cli.quiet {
