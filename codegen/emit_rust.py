@@ -363,6 +363,24 @@ def fmt_f64(v):
     return r
 
 
+def _output_declarations(fn):
+    """Fresh `let mut` outputs of `fn` for a call in `check_vectors` (matrices NaN-filled, so
+    that an entry left unwritten shows)."""
+    lines = []
+    for o in fn.outputs:
+        if o.kind == "array":
+            lines.append(f"        let mut {o.name} = [0.0f64; {len(o.exprs)}];")
+        elif o.kind == "matrix":
+            r, c = o.exprs.shape
+            lines.append(f"        let mut {o.name} = [[f64::NAN; {c}]; {r}];")
+    return lines
+
+
+def _call_line(ret, invocation):
+    """A call statement, binding the returned scalar to `ret` when there is one."""
+    return f"        let {ret} = {invocation};" if ret else f"        {invocation};"
+
+
 def emit_vector_checks(functions):
     """Rust source of `check_vectors`, calling each generated function at its sample points."""
     lines = [
@@ -391,39 +409,22 @@ def emit_vector_checks(functions):
                 if o.kind == "return":
                     ret = o.name
                     got.append(f"std::iter::once({ret})")
-                elif o.kind == "array":
-                    lines.append(f"        let mut {o.name} = [0.0f64; {len(o.exprs)}];")
-                    call.append(f"&mut {o.name}")
-                    got.append(f"{o.name}.iter().copied()")
                 else:
-                    r, c = o.exprs.shape
-                    lines.append(f"        let mut {o.name} = [[f64::NAN; {c}]; {r}];")
                     call.append(f"&mut {o.name}")
-                    got.append(f"{o.name}.iter().flatten().copied()")
-            invocation = f"{fn.name}({', '.join(call)})"
-            if ret:
-                lines.append(f"        let {ret} = {invocation};")
-            else:
-                lines.append(f"        {invocation};")
+                    flat = ".flatten()" if o.kind == "matrix" else ""
+                    got.append(f"{o.name}.iter(){flat}.copied()")
+            lines.extend(_output_declarations(fn))
+            lines.append(_call_line(ret, f"{fn.name}({', '.join(call)})"))
             chain = got[0] + "".join(f".chain({g})" for g in got[1:])
             lines.append(f"        let got: Vec<f64> = {chain}.collect();")
             if fn.wide:
-                # The portable copy, into fresh outputs: the same bits.
-                for o in fn.outputs:
-                    if o.kind == "array":
-                        lines.append(f"        let mut {o.name} = [0.0f64; {len(o.exprs)}];")
-                    elif o.kind == "matrix":
-                        r, c = o.exprs.shape
-                        lines.append(f"        let mut {o.name} = [[f64::NAN; {c}]; {r}];")
-                # The inputs through `black_box`: the inlined portable copy must run, not be
-                # folded at compile time (LLVM folds `powi(x, 3)` with one rounding, not two).
+                # The portable copy, into fresh outputs: the same bits. The inputs go through
+                # `black_box`: the inlined portable copy must run, not be folded at compile
+                # time (LLVM folds `powi(x, 3)` with one rounding, not two).
+                lines.extend(_output_declarations(fn))
                 for a in fn.args:
                     lines.append(f"        let {a.name} = std::hint::black_box({a.name});")
-                portable = f"{fn.name}_portable({', '.join(call)})"
-                if ret:
-                    lines.append(f"        let {ret} = {portable};")
-                else:
-                    lines.append(f"        {portable};")
+                lines.append(_call_line(ret, f"{fn.name}_portable({', '.join(call)})"))
                 lines.append(f"        let portable: Vec<f64> = {chain}.collect();")
                 lines.append("        for (i, (fast, slow)) in got.iter().zip(&portable).enumerate() {")
                 lines.append("            if fast.to_bits() != slow.to_bits() {")
