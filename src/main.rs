@@ -416,11 +416,10 @@ mod malloc_policy {
     /// Keep freed memory in the process instead of returning it to the kernel: blocks up to
     /// 32 MiB (glibc's largest threshold) come from the heap, not from `mmap` of their own,
     /// the heap is trimmed only above 256 MiB free at its top, and it grows by 64 MiB at a
-    /// time. A run factors,
-    /// frees and factors again matrices of the same sizes; memory handed back is faulted in
-    /// afresh at 2 µs a page on these machines, and a fresh process's first certificate
-    /// touched some 13 000 pages. The peak is unchanged (what a run uses at once); a process
-    /// that exits gives everything back anyway. Measured: bench/README.md, session 24.
+    /// time. A run factors, frees and factors again matrices of the same sizes, and memory
+    /// handed back is faulted in afresh, page by page, when it is taken again. The price is a
+    /// somewhat higher resident peak; a process that exits gives everything back anyway.
+    /// Measured (page faults, times, peaks): bench/README.md, session 24.
     pub(super) fn keep_freed_memory() {
         // SAFETY: `mallopt` is glibc's, called before any other thread exists, with
         // parameters and values it documents; a refused value leaves the default in place.

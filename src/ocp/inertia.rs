@@ -851,7 +851,6 @@ fn group_closed_pattern(
             }
         }
     };
-    let n = group.len();
     let mut row_ptr = vec![0usize; n + 1];
     pairs(&mut |c, _| row_ptr[c + 1] += 1);
     for i in 0..n {
