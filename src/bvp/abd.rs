@@ -3,9 +3,29 @@
 //!
 //! The condensed collocation matrix (see [`linear`](super::linear)) has `N` interval block
 //! rows `[A_i B_i | P_i]` coupling `y_i`, `y_{i+1}` and the `k` parameters, and `n + k`
-//! boundary rows `[G_a . G_b | G_p]` coupling `y_0`, `y_N` and `p`. The boundary conditions
-//! need not be separated, so the column-and-row alternation of COLROW/SOLVEBLOK does not
-//! apply directly. Instead the interior nodes are eliminated one at a time by *structured
+//! boundary rows `[G_a . G_b | G_p]` coupling `y_0`, `y_N` and `p`. Two layouts serve it.
+//!
+//! # Separated boundary rows (the first choice)
+//!
+//! When every boundary row touches `y_0` or `y_N` but not both (the `n_a` rows at `a`, the
+//! `n + k - n_a` others; Suslov's problem has `n_a = n / 2`), the matrix with the rows at `a`
+//! first, then the interval rows, then the rest, is almost block diagonal in the classical
+//! sense (SOLVEBLOK, de Boor & Weiss 1980): the columns of `y_t` meet only the `n_a` rows
+//! carried from the left and the `n` rows of interval `t`. So `y_0, y_1, .., y_{N-1}` are
+//! eliminated one node at a time, each from a block of `n_a + n` rows and `2n + k` columns
+//! `[y_t | y_{t+1} | p]`, and the `n_a` rows left over are carried; the last block, of order
+//! `n + k` in `(y_N, p)`, is the carried rows over the rows at `b`. Because the pivot of a
+//! column is chosen among all the rows where that column is nonzero, this is Gaussian
+//! elimination with partial pivoting of the whole (reordered) matrix, only with the zeros
+//! skipped; there is no `y_0` border, so a block has about half the arithmetic of the
+//! general layout's. Elimination with partial pivoting is not unconditionally stable here
+//! either (Wright 1993 has separated examples), so the same growth and pivot checks apply,
+//! and a factorisation that fails them is redone in the general layout below.
+//!
+//! # General boundary rows
+//!
+//! When some row couples `y_0` and `y_N` (periodic conditions, say), the interior nodes are
+//! eliminated one at a time by *structured
 //! QR* (Wright, 1992): after eliminating `y_1 .. y_{t-1}` there are `n` "carried" rows that
 //! involve only `y_0`, `y_t` and `p`; stacked on the rows of interval `t` they form a
 //! `2n`-row block whose `y_t` columns are reduced by `n` Householder reflections. The top
@@ -45,12 +65,14 @@
 //! applied to column `j` of `D J`, so for the orthogonal reduction the ratio is at most 1
 //! (up to rounding) whatever the matrix; above that means a bug, not an unlucky matrix. For
 //! elimination it is the growth factor measured the same way: unbounded in principle, at most
-//! `LU_GROWTH_LIMIT` (1e3) when elimination is kept (2.8 and 8.1 on the paper's final meshes).
+//! `LU_GROWTH_LIMIT` (1e3) when elimination is kept (either layout).
 //! It also reports the smallest pivot relative to its column, `min_j |U_jj| /
 //! ||(D J)_j||_2` (`R_jj` for QR: the part of a column independent of the columns before
 //! it): small when the matrix is near singular.
 //!
 //! # References
+//! * C. de Boor, R. Weiss, *SOLVEBLOK: a package for solving almost block diagonal linear
+//!   systems*, ACM Trans. Math. Software 6 (1980) 80-87.
 //! * S. J. Wright, *Stable parallel algorithms for two-point boundary value problems*, SIAM
 //!   J. Sci. Stat. Comput. 13 (1992) 742-764 (structured QR and structured elimination).
 //! * S. J. Wright, *A collection of problems for which Gaussian elimination with partial
@@ -68,6 +90,11 @@ pub enum Factorization {
     StructuredLu,
     /// Householder QR of every `2n`-row block (the fallback).
     StructuredQr,
+    /// Boundary conditions separated (every boundary row touches `y_0` or `y_N`, not both):
+    /// Gaussian elimination with partial pivoting of the matrix with the rows at `a` first,
+    /// which eliminates `y_0 .. y_{N-1}` in blocks of `n_a + n` rows and `2n + k` columns
+    /// (no `y_0` border). The first choice when the rows are separated.
+    SeparatedLu,
 }
 
 impl Factorization {
@@ -76,6 +103,7 @@ impl Factorization {
         match self {
             Factorization::StructuredLu => "structured LU",
             Factorization::StructuredQr => "structured QR",
+            Factorization::SeparatedLu => "separated LU",
         }
     }
 }
@@ -97,6 +125,34 @@ pub(crate) enum AbdError {
     Singular,
 }
 
+/// The block layout of a factorisation: how many rows are carried from block to block, how
+/// wide the `y_0` border is, and which node the first block eliminates.
+///
+/// * General boundary rows: `nc = n` carried rows (interval 0's rows to begin with), a
+///   border of `bw = n` columns (`y_0`), blocks eliminating `y_1 .. y_{N-1}` (`t0 = 1`); the
+///   last block has order `2n + k` in `(y_0, y_N, p)`.
+/// * Separated boundary rows: `nc = n_a` carried rows (the `n_a` rows at `a` to begin with),
+///   no border (`bw = 0`), blocks eliminating `y_0 .. y_{N-1}` (`t0 = 0`); the last block has
+///   order `n + k` in `(y_N, p)`: the carried rows over the `n + k - n_a` rows at `b`.
+///
+/// A block has `nc + n` rows and `2n + bw + k` columns `[y_t | y_{t+1} | y_0 (bw) | p]`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+struct Shape {
+    nc: usize,
+    bw: usize,
+    t0: usize,
+}
+
+impl Shape {
+    fn general(n: usize) -> Self {
+        Shape {
+            nc: n,
+            bw: n,
+            t0: 1,
+        }
+    }
+}
+
 /// The factorisation of one bordered ABD matrix of `N` interval blocks of `n` rows and
 /// `2n + k` columns plus `n + k` boundary rows (sizes fixed at construction).
 #[derive(Debug, Clone)]
@@ -107,16 +163,24 @@ pub(crate) struct BorderedAbd {
     intervals: usize,
     /// `D`: the reciprocal of every row's largest entry.
     row_scale: Vec<f64>,
-    /// One column-major `2n x (3n + k)` block per eliminated node `y_1 .. y_{N-1}`: columns
-    /// `[y_t | y_{t+1} | y_0 | p]`; top `n` rows are rows of `R` (upper triangle in the `y_t`
-    /// columns), below the diagonal of the `y_t` columns are the Householder vectors, and the
-    /// bottom `n` rows of the other columns are the carried rows.
+    /// The layout of the current factorisation.
+    shape: Shape,
+    /// The boundary rows (indices among the `n + k`) that start the elimination as its first
+    /// carried rows (separated: the rows at `a`; general: none, interval 0's rows start it).
+    bc_first: Vec<usize>,
+    /// The boundary rows of the last block, in order (separated: the rows at `b`; general:
+    /// all `n + k`).
+    bc_last: Vec<usize>,
+    /// One column-major `(nc + n) x (2n + bw + k)` block per eliminated node (see [`Shape`]):
+    /// the top `n` rows are rows of `R` (upper triangle in the `y_t` columns), below the
+    /// diagonal of the `y_t` columns are the Householder vectors (QR) or the multipliers
+    /// (LU), and the bottom `nc` rows of the other columns are the carried rows.
     steps: Vec<f64>,
     /// Householder scalars of every step (`n` each; QR).
     taus: Vec<f64>,
-    /// Row interchanges of every step (`n` each, rows of the `2n`-row block; LU).
+    /// Row interchanges of every step (`n` each, rows of the block; LU).
     pivots: Vec<usize>,
-    /// The final column-major block of order `2n + k` in `(y_0, y_N, p)`, QR-factored.
+    /// The final column-major block of order `n + bw + k` in `(y_0 (bw), y_N, p)`.
     last: Vec<f64>,
     last_taus: Vec<f64>,
     last_pivots: Vec<usize>,
@@ -124,6 +188,9 @@ pub(crate) struct BorderedAbd {
     method: Factorization,
     /// Whether to try structured LU first (tests switch it off to compare with QR).
     try_lu: bool,
+    /// Whether to try the separated layout when the boundary rows allow it (tests switch it
+    /// off to compare the layouts).
+    try_separated: bool,
     /// `max_ij |R_ij| / ||(D J)_j||_2` of the last factorisation.
     growth: f64,
     /// `min_j |R_jj| / ||(D J)_j||_2` of the last factorisation.
@@ -133,7 +200,7 @@ pub(crate) struct BorderedAbd {
     /// Their reciprocal square roots (`1 / ||(D J)_j||_2`).
     col_inv_norm: Vec<f64>,
     factored: bool,
-    /// Workspaces of the solves (`2n + k` and `2n + k`).
+    /// Workspaces of the solves (`2n + k` and `n + k`).
     active: Vec<f64>,
     border: Vec<f64>,
     /// Workspace of [`Self::solve_scaled_multi_in_place`] (grown on demand, kept).
@@ -146,27 +213,33 @@ impl BorderedAbd {
         let s = 2 * n;
         let cols = 3 * n + k;
         let q = 2 * n + k;
+        // The general layout's blocks; the separated layout's fit in that storage whenever
+        // `n_a <= n` (more rows at `a` than states grow it on first use).
         let eliminated = intervals.saturating_sub(1);
         Self {
             n,
             k,
             intervals,
             row_scale: vec![0.0; intervals * n + n + k],
-            steps: vec![0.0; eliminated * s * cols],
-            taus: vec![0.0; eliminated * n],
-            pivots: vec![0; eliminated * n],
+            shape: Shape::general(n),
+            bc_first: Vec::with_capacity(n + k),
+            bc_last: Vec::with_capacity(n + k),
+            steps: vec![0.0; (eliminated * s * cols).max(intervals * (2 * n) * (2 * n + k))],
+            taus: vec![0.0; intervals * n],
+            pivots: vec![0; intervals * n],
             last: vec![0.0; q * q],
             last_taus: vec![0.0; q],
             last_pivots: vec![0; q],
             method: Factorization::StructuredLu,
             try_lu: true,
+            try_separated: true,
             growth: f64::NAN,
             min_pivot: f64::NAN,
             col_norm2: vec![0.0; (intervals + 1) * n + k],
             col_inv_norm: vec![0.0; (intervals + 1) * n + k],
             factored: false,
             active: vec![0.0; q],
-            border: vec![0.0; q],
+            border: vec![0.0; n + k],
             multi: Vec::new(),
         }
     }
@@ -192,6 +265,13 @@ impl BorderedAbd {
     #[cfg(test)]
     pub fn set_try_lu(&mut self, on: bool) {
         self.try_lu = on;
+    }
+
+    /// Whether [`factor`](Self::factor) uses the separated layout when the boundary rows are
+    /// separated (default); `false` forces the general layout.
+    #[cfg(test)]
+    pub fn set_try_separated(&mut self, on: bool) {
+        self.try_separated = on;
     }
 
     /// Growth of the last successful factorisation: `max_ij |R_ij| / ||(D J)_j||_2` (at most
@@ -257,13 +337,47 @@ impl BorderedAbd {
         for (inv, norm2) in self.col_inv_norm.iter_mut().zip(col_norm2.iter()) {
             *inv = 1.0 / norm2.sqrt();
         }
-        // Elimination first; orthogonal reduction if it grows or meets a tiny or zero pivot.
+        // Separated boundary rows: the rows touching only y_0 (and p) start the elimination,
+        // all others (touching y_N, or only p) end it.
+        let separated = self.try_separated
+            && boundary.chunks_exact(wc).all(|row| {
+                row[..n].iter().all(|v| *v == 0.0) || row[n..2 * n].iter().all(|v| *v == 0.0)
+            });
+        let acceptable =
+            |this: &Self| this.growth <= LU_GROWTH_LIMIT && this.min_pivot >= LU_MIN_PIVOT;
+        if self.try_lu && separated {
+            self.bc_first.clear();
+            self.bc_last.clear();
+            for (r, row) in boundary.chunks_exact(wc).enumerate() {
+                if row[n..2 * n].iter().all(|v| *v == 0.0) && row[..n].iter().any(|v| *v != 0.0) {
+                    self.bc_first.push(r);
+                } else {
+                    self.bc_last.push(r);
+                }
+            }
+            let nc = self.bc_first.len();
+            let need = nn * (nc + n) * (2 * n + k);
+            if self.steps.len() < need {
+                self.steps.resize(need, 0.0);
+            }
+            self.shape = Shape { nc, bw: 0, t0: 0 };
+            if self.sweep_sized(values, Factorization::SeparatedLu).is_ok() && acceptable(self) {
+                self.method = Factorization::SeparatedLu;
+                self.factored = true;
+                return Ok(());
+            }
+        }
+        // The general layout: elimination first; orthogonal reduction if it grows or meets a
+        // tiny or zero pivot.
+        self.shape = Shape::general(n);
+        self.bc_first.clear();
+        self.bc_last.clear();
+        self.bc_last.extend(0..n + k);
         if self.try_lu
             && self
                 .sweep_sized(values, Factorization::StructuredLu)
                 .is_ok()
-            && self.growth <= LU_GROWTH_LIMIT
-            && self.min_pivot >= LU_MIN_PIVOT
+            && acceptable(self)
         {
             self.method = Factorization::StructuredLu;
         } else {
@@ -278,16 +392,19 @@ impl BorderedAbd {
     /// the inlined kernels; the same operations, so the same bits).
     #[inline(always)]
     fn sweep_sized(&mut self, values: &[f64], method: Factorization) -> Result<(), AbdError> {
-        match (self.n, self.k) {
-            (12, 1) => self.sweep(values, method, 12, 1),
-            (24, 1) => self.sweep(values, method, 24, 1),
-            (n, k) => self.sweep(values, method, n, k),
+        // Suslov's conditions: n / 2 rows at a (Omega and the natural condition on xi).
+        match (self.n, self.k, self.shape.nc, self.shape.bw) {
+            (12, 1, 12, 12) => self.sweep(values, method, 12, 1, 12, 12),
+            (12, 1, 6, 0) => self.sweep(values, method, 12, 1, 6, 0),
+            (24, 1, 24, 24) => self.sweep(values, method, 24, 1, 24, 24),
+            (24, 1, 12, 0) => self.sweep(values, method, 24, 1, 12, 0),
+            (n, k, nc, bw) => self.sweep(values, method, n, k, nc, bw),
         }
     }
 
-    /// Reduce the row-scaled matrix (`row_scale` and `col_norm2` are set) by `method`; sets
-    /// `growth` and `min_pivot`. Elimination stops early (with an error) once its growth
-    /// exceeds `LU_GROWTH_LIMIT` (1e3).
+    /// Reduce the row-scaled matrix (`row_scale`, `col_norm2`, `shape` and the boundary row
+    /// lists are set) by `method`; sets `growth` and `min_pivot`. Elimination stops early
+    /// (with an error) once its growth exceeds `LU_GROWTH_LIMIT` (1e3).
     #[inline(always)]
     fn sweep(
         &mut self,
@@ -295,13 +412,18 @@ impl BorderedAbd {
         method: Factorization,
         n: usize,
         k: usize,
+        nc: usize,
+        bw: usize,
     ) -> Result<(), AbdError> {
+        debug_assert_eq!((nc, bw), (self.shape.nc, self.shape.bw));
         let nn = self.intervals;
-        let lu = method == Factorization::StructuredLu;
+        let lu = method != Factorization::StructuredQr;
+        let t0 = self.shape.t0;
         let wc = 2 * n + k;
         let po = (nn + 1) * n;
-        let s = 2 * n;
-        let cols = 3 * n + k;
+        let s = nc + n;
+        let pc = 2 * n + bw;
+        let cols = pc + k;
         let block = s * cols;
         let mut growth = 0.0_f64;
         let mut min_pivot = f64::INFINITY;
@@ -316,66 +438,82 @@ impl BorderedAbd {
                 m * col_inv_norm[j]
             }
         };
-        // Scaled entry (r, c) of the block row of interval i.
+        // Scaled entry (r, c) of the block row of interval i, and of boundary row r.
         let entry =
             |i: usize, r: usize, c: usize| values[(i * n + r) * wc + c] * row_scale[i * n + r];
-        for t in 1..nn {
-            let (done, rest) = self.steps.split_at_mut((t - 1) * block);
+        let boundary = |r: usize, c: usize| {
+            let row = nn * n + r;
+            values[row * wc + c] * row_scale[row]
+        };
+        for t in t0..nn {
+            let idx = t - t0;
+            let (done, rest) = self.steps.split_at_mut(idx * block);
             let step = &mut rest[..block];
             // Zero blocks: y_{t+1} in the carried rows, y_0 in interval t's rows.
             for c in n..2 * n {
-                step[c * s..c * s + n].fill(0.0);
+                step[c * s..c * s + nc].fill(0.0);
             }
-            for c in 2 * n..3 * n {
-                step[c * s + n..(c + 1) * s].fill(0.0);
+            for c in 2 * n..pc {
+                step[c * s + nc..(c + 1) * s].fill(0.0);
             }
-            // Top rows: the carried rows (interval 0 itself before the first step).
-            if t == 1 {
+            // Top rows: the carried rows (to begin with, interval 0 itself, or the rows at a).
+            if idx == 0 && bw > 0 {
                 for r in 0..n {
                     for c in 0..n {
                         step[c * s + r] = entry(0, r, n + c); // y_1: B_0
                         step[(2 * n + c) * s + r] = entry(0, r, c); // y_0: A_0
                     }
                     for c in 0..k {
-                        step[(3 * n + c) * s + r] = entry(0, r, 2 * n + c);
+                        step[(pc + c) * s + r] = entry(0, r, 2 * n + c);
+                    }
+                }
+            } else if idx == 0 {
+                for (r, &b) in self.bc_first.iter().enumerate() {
+                    for c in 0..n {
+                        step[c * s + r] = boundary(b, c); // y_0: G_a
+                    }
+                    for c in 0..k {
+                        step[(pc + c) * s + r] = boundary(b, 2 * n + c);
                     }
                 }
             } else {
-                let prev = &done[(t - 2) * block..];
-                for r in 0..n {
+                let prev = &done[(idx - 1) * block..];
+                for r in 0..nc {
                     for c in 0..n {
                         step[c * s + r] = prev[(n + c) * s + n + r];
-                        step[(2 * n + c) * s + r] = prev[(2 * n + c) * s + n + r];
                     }
-                    for c in 0..k {
-                        step[(3 * n + c) * s + r] = prev[(3 * n + c) * s + n + r];
+                    for c in 2 * n..cols {
+                        step[c * s + r] = prev[c * s + n + r];
                     }
                 }
             }
             // Bottom rows: interval t.
             for r in 0..n {
                 for c in 0..n {
-                    step[c * s + n + r] = entry(t, r, c); // y_t: A_t
-                    step[(n + c) * s + n + r] = entry(t, r, n + c); // y_{t+1}: B_t
+                    step[c * s + nc + r] = entry(t, r, c); // y_t: A_t
+                    step[(n + c) * s + nc + r] = entry(t, r, n + c); // y_{t+1}: B_t
                 }
                 for c in 0..k {
-                    step[(3 * n + c) * s + n + r] = entry(t, r, 2 * n + c);
+                    step[(pc + c) * s + nc + r] = entry(t, r, 2 * n + c);
                 }
             }
             if lu {
-                lu_panel(step, s, n, cols, &mut self.pivots[(t - 1) * n..t * n])?;
+                lu_panel(step, s, n, cols, &mut self.pivots[idx * n..(idx + 1) * n])?;
             } else {
-                householder_qr(step, s, n, cols, &mut self.taus[(t - 1) * n..t * n])?;
+                householder_qr(step, s, n, cols, &mut self.taus[idx * n..(idx + 1) * n])?;
             }
             // Growth: the rows of R (U), and for elimination also the carried rows (they
             // are intermediate results, which an orthogonal reduction keeps bounded anyway).
             let rows = if lu { s } else { n };
             for c in 0..cols {
-                let (top, j) = match c / n {
-                    0 => (c + 1, t * n + c),
-                    1 => (rows, (t + 1) * n + c - n),
-                    2 => (rows, c - 2 * n),
-                    _ => (rows, po + c - 3 * n),
+                let (top, j) = if c < n {
+                    (c + 1, t * n + c)
+                } else if c < 2 * n {
+                    (rows, (t + 1) * n + c - n)
+                } else if c < pc {
+                    (rows, c - 2 * n)
+                } else {
+                    (rows, po + c - pc)
                 };
                 growth = growth.max(ratio(&step[c * s..c * s + top], j));
                 if c < n {
@@ -386,45 +524,53 @@ impl BorderedAbd {
                 return Err(AbdError::Singular);
             }
         }
-        // The last block: carried rows over the boundary rows, columns (y_0, y_N, p).
-        let q = wc;
+        // The last block: carried rows over the boundary rows that end the elimination,
+        // columns (y_0 (bw), y_N, p).
+        let q = n + bw + k;
         let last = &mut self.last;
-        for r in 0..n {
-            for c in 0..n {
-                let (y0, yn) = if nn == 1 {
-                    (entry(0, r, c), entry(0, r, n + c))
-                } else {
-                    let prev = &self.steps[(nn - 2) * block..];
-                    (prev[(2 * n + c) * s + n + r], prev[(n + c) * s + n + r])
-                };
-                last[c * q + r] = y0;
-                last[(n + c) * q + r] = yn;
-            }
-            for c in 0..k {
-                last[(2 * n + c) * q + r] = if nn == 1 {
-                    entry(0, r, 2 * n + c)
-                } else {
-                    self.steps[(nn - 2) * block + (3 * n + c) * s + n + r]
-                };
+        for r in 0..nc {
+            if nn == t0 {
+                // General layout on one interval: nothing eliminated, interval 0 is carried.
+                for c in 0..n {
+                    last[c * q + r] = entry(0, r, c);
+                    last[(n + c) * q + r] = entry(0, r, n + c);
+                }
+                for c in 0..k {
+                    last[(2 * n + c) * q + r] = entry(0, r, 2 * n + c);
+                }
+            } else {
+                let prev = &self.steps[(nn - t0 - 1) * block..];
+                for c in 0..bw {
+                    last[c * q + r] = prev[(2 * n + c) * s + n + r];
+                }
+                for c in 0..n {
+                    last[(bw + c) * q + r] = prev[(n + c) * s + n + r];
+                }
+                for c in 0..k {
+                    last[(bw + n + c) * q + r] = prev[(pc + c) * s + n + r];
+                }
             }
         }
-        for r in 0..n + k {
-            let row = nn * n + r;
-            let d = row_scale[row];
-            for c in 0..wc {
-                last[c * q + n + r] = values[row * wc + c] * d;
+        // A boundary row's columns (y_0, y_N, p) from its y_0 part on (general) or from its
+        // y_N part on (separated: its y_0 part is zero).
+        let from = n - bw;
+        for (i, &b) in self.bc_last.iter().enumerate() {
+            for c in 0..q {
+                last[c * q + nc + i] = boundary(b, from + c);
             }
         }
         if lu {
-            lu_panel(last, q, q, q, &mut self.last_pivots)?;
+            lu_panel(last, q, q, q, &mut self.last_pivots[..q])?;
         } else {
-            householder_qr(last, q, q, q, &mut self.last_taus)?;
+            householder_qr(last, q, q, q, &mut self.last_taus[..q])?;
         }
         for c in 0..q {
-            let j = match c / n {
-                0 => c,
-                1 => nn * n + c - n,
-                _ => po + c - 2 * n,
+            let j = if c < bw {
+                c
+            } else if c < bw + n {
+                nn * n + c - bw
+            } else {
+                po + c - bw - n
             };
             growth = growth.max(ratio(&last[c * q..c * q + c + 1], j));
             min_pivot = min_pivot.min(last[c * q + c].abs() * col_inv_norm[j]);
@@ -450,71 +596,101 @@ impl BorderedAbd {
     pub fn solve_scaled_in_place(&mut self, x: &mut [f64]) -> bool {
         avx2!(fn(this: &mut BorderedAbd, x: &mut [f64]) -> bool {
             // The common sizes as constants (as in `sweep_sized`; the same bits).
-            match (this.n, this.k) {
-                (12, 1) => this.solve_scaled_impl(x, 12, 1),
-                (24, 1) => this.solve_scaled_impl(x, 24, 1),
-                (n, k) => this.solve_scaled_impl(x, n, k),
+            match (this.n, this.k, this.shape.nc, this.shape.bw) {
+                (12, 1, 12, 12) => this.solve_scaled_impl(x, 12, 1, 12, 12),
+                (12, 1, 6, 0) => this.solve_scaled_impl(x, 12, 1, 6, 0),
+                (24, 1, 24, 24) => this.solve_scaled_impl(x, 24, 1, 24, 24),
+                (24, 1, 12, 0) => this.solve_scaled_impl(x, 24, 1, 12, 0),
+                (n, k, nc, bw) => this.solve_scaled_impl(x, n, k, nc, bw),
             }
         }, self, x)
     }
 
     #[inline(always)]
-    fn solve_scaled_impl(&mut self, x: &mut [f64], n: usize, k: usize) -> bool {
-        debug_assert_eq!((n, k), (self.n, self.k));
+    fn solve_scaled_impl(
+        &mut self,
+        x: &mut [f64],
+        n: usize,
+        k: usize,
+        nc: usize,
+        bw: usize,
+    ) -> bool {
+        debug_assert_eq!(
+            (n, k, nc, bw),
+            (self.n, self.k, self.shape.nc, self.shape.bw)
+        );
         if !self.factored {
             return false;
         }
         let nn = self.intervals;
-        let s = 2 * n;
-        let cols = 3 * n + k;
-        let block = s * cols;
-        let q = 2 * n + k;
+        let t0 = self.shape.t0;
+        let s = nc + n;
+        let pc = 2 * n + bw;
+        let block = s * (pc + k);
+        let q = n + bw + k;
+        let qr = self.method == Factorization::StructuredQr;
         let v = &mut self.active;
-        // Forward: apply every step's reflections to [carried; b of interval t].
-        v[..n].copy_from_slice(&x[..n]);
-        for t in 1..nn {
-            let step = &self.steps[(t - 1) * block..t * block];
-            v[n..s].copy_from_slice(&x[t * n..(t + 1) * n]);
-            match self.method {
-                Factorization::StructuredLu => {
-                    apply_lu(step, s, n, &self.pivots[(t - 1) * n..t * n], &mut v[..s])
-                }
-                Factorization::StructuredQr => {
-                    apply_qt(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s])
-                }
+        // Forward: apply every step's eliminations (reflections) to [carried; b of interval
+        // t], the carried rows being interval 0's or the rows at a to begin with.
+        if bw > 0 {
+            v[..n].copy_from_slice(&x[..n]);
+        } else {
+            for (vr, &b) in v.iter_mut().zip(&self.bc_first) {
+                *vr = x[nn * n + b];
+            }
+        }
+        for t in t0..nn {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
+            v[nc..s].copy_from_slice(&x[t * n..(t + 1) * n]);
+            if qr {
+                apply_qt(step, s, n, &self.taus[idx * n..(idx + 1) * n], &mut v[..s]);
+            } else {
+                apply_lu(
+                    step,
+                    s,
+                    n,
+                    &self.pivots[idx * n..(idx + 1) * n],
+                    &mut v[..s],
+                );
             }
             x[t * n..(t + 1) * n].copy_from_slice(&v[..n]);
             v.copy_within(n..s, 0);
         }
-        // The last block: [carried; boundary rows] -> (y_0, y_N, p).
-        v[n..q].copy_from_slice(&x[nn * n..nn * n + n + k]);
-        match self.method {
-            Factorization::StructuredLu => {
-                apply_lu(&self.last, q, q, &self.last_pivots, &mut v[..q])
-            }
-            Factorization::StructuredQr => apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q]),
+        // The last block: [carried; boundary rows at the end] -> (y_0 (bw), y_N, p).
+        for (i, &b) in self.bc_last.iter().enumerate() {
+            v[nc + i] = x[nn * n + b];
+        }
+        if qr {
+            apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q]);
+        } else {
+            apply_lu(&self.last, q, q, &self.last_pivots, &mut v[..q]);
         }
         solve_upper(&self.last, q, q, &mut v[..q]);
-        x[..n].copy_from_slice(&v[..n]);
-        x[nn * n..nn * n + n + k].copy_from_slice(&v[n..q]);
-        // Back substitution for y_{N-1} .. y_1: R_tt y_t = c_t - R_t,t+1 y_{t+1} - R_t0 y_0 - R_tp p.
+        x[..bw].copy_from_slice(&v[..bw]);
+        x[nn * n..nn * n + n + k].copy_from_slice(&v[bw..q]);
+        // Back substitution for y_{N-1} .. y_t0: R_tt y_t = c_t - R_t,t+1 y_{t+1} - R_t0 y_0
+        // - R_tp p.
         let border = &mut self.border;
-        border[..n].copy_from_slice(&x[..n]);
-        border[n..n + k].copy_from_slice(&x[(nn + 1) * n..(nn + 1) * n + k]);
-        for t in (1..nn).rev() {
-            let step = &self.steps[(t - 1) * block..t * block];
+        border[..bw].copy_from_slice(&x[..bw]);
+        border[bw..bw + k].copy_from_slice(&x[(nn + 1) * n..(nn + 1) * n + k]);
+        for t in (t0..nn).rev() {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
             let (head, tail) = x.split_at_mut((t + 1) * n);
             let c = &mut head[t * n..];
             let next = &tail[..n];
             for j in 0..n {
                 let col = &step[(n + j) * s..(n + j) * s + n];
                 axpy(c, -next[j], col);
-                let col = &step[(2 * n + j) * s..(2 * n + j) * s + n];
-                axpy(c, -border[j], col);
+                if j < bw {
+                    let col = &step[(2 * n + j) * s..(2 * n + j) * s + n];
+                    axpy(c, -border[j], col);
+                }
             }
             for j in 0..k {
-                let col = &step[(3 * n + j) * s..(3 * n + j) * s + n];
-                axpy(c, -border[n + j], col);
+                let col = &step[(pc + j) * s..(pc + j) * s + n];
+                axpy(c, -border[bw + j], col);
             }
             solve_upper(step, s, n, c);
         }
@@ -529,9 +705,9 @@ impl BorderedAbd {
     /// along the columns.
     ///
     /// With `zero_intervals` the caller promises that the interval rows (all rows before the
-    /// boundary rows) of every column are zero: the forward sweep, which would only carry
-    /// those zeros, is skipped. Returns `false` without a factorisation or if a result is not
-    /// finite.
+    /// boundary rows) of every column are zero: in the general layout the forward sweep,
+    /// which would only carry those zeros, is skipped. Returns `false` without a
+    /// factorisation or if a result is not finite.
     pub fn solve_scaled_multi_in_place(
         &mut self,
         x: &mut [f64],
@@ -539,14 +715,17 @@ impl BorderedAbd {
         zero_intervals: bool,
     ) -> bool {
         avx2!(fn(this: &mut BorderedAbd, x: &mut [f64], r: usize, zero_intervals: bool) -> bool {
-            match (this.n, this.k) {
-                (12, 1) => this.solve_multi_impl(x, r, zero_intervals, 12, 1),
-                (24, 1) => this.solve_multi_impl(x, r, zero_intervals, 24, 1),
-                (n, k) => this.solve_multi_impl(x, r, zero_intervals, n, k),
+            match (this.n, this.k, this.shape.nc, this.shape.bw) {
+                (12, 1, 12, 12) => this.solve_multi_impl(x, r, zero_intervals, 12, 1, 12, 12),
+                (12, 1, 6, 0) => this.solve_multi_impl(x, r, zero_intervals, 12, 1, 6, 0),
+                (24, 1, 24, 24) => this.solve_multi_impl(x, r, zero_intervals, 24, 1, 24, 24),
+                (24, 1, 12, 0) => this.solve_multi_impl(x, r, zero_intervals, 24, 1, 12, 0),
+                (n, k, nc, bw) => this.solve_multi_impl(x, r, zero_intervals, n, k, nc, bw),
             }
         }, self, x, r, zero_intervals)
     }
 
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
     fn solve_multi_impl(
         &mut self,
@@ -555,86 +734,107 @@ impl BorderedAbd {
         zero_intervals: bool,
         n: usize,
         k: usize,
+        nc: usize,
+        bw: usize,
     ) -> bool {
-        debug_assert_eq!((n, k), (self.n, self.k));
+        debug_assert_eq!(
+            (n, k, nc, bw),
+            (self.n, self.k, self.shape.nc, self.shape.bw)
+        );
         let nn = self.intervals;
-        let q = 2 * n + k;
         debug_assert_eq!(x.len(), ((nn + 1) * n + k) * r);
         if !self.factored || r == 0 {
             return self.factored;
         }
-        let s = 2 * n;
-        let cols = 3 * n + k;
-        let block = s * cols;
-        let need = q * r + (n + k) * r + 5 * r;
+        let t0 = self.shape.t0;
+        let s = nc + n;
+        let pc = 2 * n + bw;
+        let block = s * (pc + k);
+        let q = n + bw + k;
+        let qr = self.method == Factorization::StructuredQr;
+        let width = s.max(q);
+        let need = width * r + (n + k) * r + 5 * r;
         if self.multi.len() < need {
             self.multi.resize(need, 0.0);
         }
-        let (v, rest) = self.multi.split_at_mut(q * r);
+        let (v, rest) = self.multi.split_at_mut(width * r);
         let (border, acc) = rest.split_at_mut((n + k) * r);
         let acc = &mut acc[..5 * r];
-        // Forward: the reflections (or eliminations) of every step applied to
-        // [carried; rows of interval t]; with zero interval rows everything stays zero.
-        v[..n * r].copy_from_slice(&x[..n * r]);
-        if zero_intervals {
+        // Forward: the eliminations (or reflections) of every step applied to
+        // [carried; rows of interval t]; in the general layout, with zero interval rows,
+        // everything stays zero (the separated layout carries the rows at a).
+        if bw > 0 && zero_intervals {
             v[..n * r].fill(0.0);
         } else {
-            for t in 1..nn {
-                let step = &self.steps[(t - 1) * block..t * block];
-                v[n * r..s * r].copy_from_slice(&x[t * n * r..(t + 1) * n * r]);
-                match self.method {
-                    Factorization::StructuredLu => multi_apply_lu(
+            if bw > 0 {
+                v[..n * r].copy_from_slice(&x[..n * r]);
+            } else {
+                for (i, &b) in self.bc_first.iter().enumerate() {
+                    let row = nn * n + b;
+                    v[i * r..(i + 1) * r].copy_from_slice(&x[row * r..(row + 1) * r]);
+                }
+            }
+            for t in t0..nn {
+                let idx = t - t0;
+                let step = &self.steps[idx * block..(idx + 1) * block];
+                v[nc * r..s * r].copy_from_slice(&x[t * n * r..(t + 1) * n * r]);
+                if qr {
+                    multi_apply_qt(
                         step,
                         s,
                         n,
-                        &self.pivots[(t - 1) * n..t * n],
-                        &mut v[..s * r],
-                        r,
-                    ),
-                    Factorization::StructuredQr => multi_apply_qt(
-                        step,
-                        s,
-                        n,
-                        &self.taus[(t - 1) * n..t * n],
+                        &self.taus[idx * n..(idx + 1) * n],
                         &mut v[..s * r],
                         r,
                         acc,
-                    ),
+                    );
+                } else {
+                    multi_apply_lu(
+                        step,
+                        s,
+                        n,
+                        &self.pivots[idx * n..(idx + 1) * n],
+                        &mut v[..s * r],
+                        r,
+                    );
                 }
                 x[t * n * r..(t + 1) * n * r].copy_from_slice(&v[..n * r]);
                 v.copy_within(n * r..s * r, 0);
             }
         }
-        // The last block: [carried; boundary rows] -> (y_0, y_N, p).
-        v[n * r..q * r].copy_from_slice(&x[nn * n * r..(nn * n + n + k) * r]);
-        match self.method {
-            Factorization::StructuredLu => {
-                multi_apply_lu(&self.last, q, q, &self.last_pivots, &mut v[..q * r], r)
-            }
-            Factorization::StructuredQr => {
-                multi_apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q * r], r, acc)
-            }
+        // The last block: [carried; boundary rows at the end] -> (y_0 (bw), y_N, p).
+        for (i, &b) in self.bc_last.iter().enumerate() {
+            let row = nn * n + b;
+            v[(nc + i) * r..(nc + i + 1) * r].copy_from_slice(&x[row * r..(row + 1) * r]);
+        }
+        if qr {
+            multi_apply_qt(&self.last, q, q, &self.last_taus, &mut v[..q * r], r, acc);
+        } else {
+            multi_apply_lu(&self.last, q, q, &self.last_pivots, &mut v[..q * r], r);
         }
         multi_solve_upper(&self.last, q, q, &mut v[..q * r], r);
-        x[..n * r].copy_from_slice(&v[..n * r]);
-        x[nn * n * r..(nn * n + n + k) * r].copy_from_slice(&v[n * r..q * r]);
-        // Back substitution for y_{N-1} .. y_1, as in the single solve.
-        border[..n * r].copy_from_slice(&x[..n * r]);
-        border[n * r..(n + k) * r].copy_from_slice(&x[(nn + 1) * n * r..((nn + 1) * n + k) * r]);
-        for t in (1..nn).rev() {
-            let step = &self.steps[(t - 1) * block..t * block];
+        x[..bw * r].copy_from_slice(&v[..bw * r]);
+        x[nn * n * r..(nn * n + n + k) * r].copy_from_slice(&v[bw * r..q * r]);
+        // Back substitution for y_{N-1} .. y_t0, as in the single solve.
+        border[..bw * r].copy_from_slice(&x[..bw * r]);
+        border[bw * r..(bw + k) * r].copy_from_slice(&x[(nn + 1) * n * r..((nn + 1) * n + k) * r]);
+        for t in (t0..nn).rev() {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
             let (head, tail) = x.split_at_mut((t + 1) * n * r);
             let c = &mut head[t * n * r..];
             let next = &tail[..n * r];
             for j in 0..n {
                 let col = &step[(n + j) * s..(n + j) * s + n];
                 multi_axpy(c, &next[j * r..(j + 1) * r], col, r);
-                let col = &step[(2 * n + j) * s..(2 * n + j) * s + n];
-                multi_axpy(c, &border[j * r..(j + 1) * r], col, r);
+                if j < bw {
+                    let col = &step[(2 * n + j) * s..(2 * n + j) * s + n];
+                    multi_axpy(c, &border[j * r..(j + 1) * r], col, r);
+                }
             }
             for j in 0..k {
-                let col = &step[(3 * n + j) * s..(3 * n + j) * s + n];
-                multi_axpy(c, &border[(n + j) * r..(n + j + 1) * r], col, r);
+                let col = &step[(pc + j) * s..(pc + j) * s + n];
+                multi_axpy(c, &border[(bw + j) * r..(bw + j + 1) * r], col, r);
             }
             multi_solve_upper(step, s, n, c, r);
         }
@@ -654,17 +854,20 @@ impl BorderedAbd {
             return false;
         }
         let (n, k, nn) = (self.n, self.k, self.intervals);
-        let s = 2 * n;
-        let cols = 3 * n + k;
-        let block = s * cols;
-        let q = 2 * n + k;
+        let Shape { nc, bw, t0 } = self.shape;
+        let s = nc + n;
+        let pc = 2 * n + bw;
+        let block = s * (pc + k);
+        let q = n + bw + k;
+        let qr = self.method == Factorization::StructuredQr;
         // R^T w = b, forward over the eliminated nodes: R_tt^T w_t = b_t - R_{t-1,t}^T w_{t-1}.
-        for t in 1..nn {
-            let step = &self.steps[(t - 1) * block..t * block];
+        for t in t0..nn {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
             let (head, tail) = x.split_at_mut(t * n);
             let w = &mut tail[..n];
-            if t > 1 {
-                let prev = &self.steps[(t - 2) * block..(t - 1) * block];
+            if idx > 0 {
+                let prev = &self.steps[(idx - 1) * block..idx * block];
                 let wp = &head[(t - 1) * n..];
                 for (j, wj) in w.iter_mut().enumerate() {
                     *wj -= dot(&prev[(n + j) * s..(n + j) * s + n], wp);
@@ -672,59 +875,66 @@ impl BorderedAbd {
             }
             solve_upper_transpose(step, s, n, w);
         }
-        // The border: b(y_0, y_N, p) - sum_t R_t,border^T w_t, then R_last^T w_last = that.
+        // The border: b(y_0 (bw), y_N, p) - sum_t R_t,border^T w_t, then R_last^T w_last = that.
         let v = &mut self.active;
-        v[..n].copy_from_slice(&x[..n]);
-        v[n..q].copy_from_slice(&x[nn * n..nn * n + n + k]);
-        for t in 1..nn {
-            let step = &self.steps[(t - 1) * block..t * block];
+        v[..bw].copy_from_slice(&x[..bw]);
+        v[bw..q].copy_from_slice(&x[nn * n..nn * n + n + k]);
+        for t in t0..nn {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
             let w = &x[t * n..(t + 1) * n];
-            for j in 0..n {
+            for j in 0..bw {
                 v[j] -= dot(&step[(2 * n + j) * s..(2 * n + j) * s + n], w);
             }
             for j in 0..k {
-                v[2 * n + j] -= dot(&step[(3 * n + j) * s..(3 * n + j) * s + n], w);
+                v[bw + n + j] -= dot(&step[(pc + j) * s..(pc + j) * s + n], w);
             }
             if t == nn - 1 {
                 for j in 0..n {
-                    v[n + j] -= dot(&step[(n + j) * s..(n + j) * s + n], w);
+                    v[bw + j] -= dot(&step[(n + j) * s..(n + j) * s + n], w);
                 }
             }
         }
         solve_upper_transpose(&self.last, q, q, &mut v[..q]);
-        // x = Q w: the last block's reflections, then every step's in reverse.
-        match self.method {
-            Factorization::StructuredLu => {
-                apply_lu_transpose(&self.last, q, q, &self.last_pivots, &mut v[..q])
-            }
-            Factorization::StructuredQr => apply_q(&self.last, q, q, &self.last_taus, &mut v[..q]),
+        // x = Q w: the last block's eliminations (reflections), then every step's in reverse.
+        if qr {
+            apply_q(&self.last, q, q, &self.last_taus, &mut v[..q]);
+        } else {
+            apply_lu_transpose(&self.last, q, q, &self.last_pivots, &mut v[..q]);
         }
-        x[nn * n..nn * n + n + k].copy_from_slice(&v[n..q]);
-        for t in (1..nn).rev() {
-            let step = &self.steps[(t - 1) * block..t * block];
+        for (i, &b) in self.bc_last.iter().enumerate() {
+            x[nn * n + b] = v[nc + i];
+        }
+        for t in (t0..nn).rev() {
+            let idx = t - t0;
+            let step = &self.steps[idx * block..(idx + 1) * block];
             // [carried_{t-1}; x_t] = Q_t [w_t; carried_t].
-            v.copy_within(0..n, n);
+            v.copy_within(0..nc, n);
             v[..n].copy_from_slice(&x[t * n..(t + 1) * n]);
-            match self.method {
-                Factorization::StructuredLu => {
-                    apply_lu_transpose(step, s, n, &self.pivots[(t - 1) * n..t * n], &mut v[..s])
-                }
-                Factorization::StructuredQr => {
-                    apply_q(step, s, n, &self.taus[(t - 1) * n..t * n], &mut v[..s])
-                }
+            if qr {
+                apply_q(step, s, n, &self.taus[idx * n..(idx + 1) * n], &mut v[..s]);
+            } else {
+                apply_lu_transpose(
+                    step,
+                    s,
+                    n,
+                    &self.pivots[idx * n..(idx + 1) * n],
+                    &mut v[..s],
+                );
             }
-            x[t * n..(t + 1) * n].copy_from_slice(&v[n..s]);
+            x[t * n..(t + 1) * n].copy_from_slice(&v[nc..s]);
         }
-        x[..n].copy_from_slice(&v[..n]);
+        if bw > 0 {
+            x[..n].copy_from_slice(&v[..n]);
+        } else {
+            for (i, &b) in self.bc_first.iter().enumerate() {
+                x[nn * n + b] = v[i];
+            }
+        }
         x.iter().all(|v| v.is_finite())
     }
 }
 
-/// Householder QR of the first `p` columns of the column-major `rows x cols` matrix `a`
-/// (leading dimension `rows`), applied to all `cols` columns (LAPACK's `dgeqr2` + `dorm2r`
-/// in one sweep). On return the upper triangle of the first `p` columns is `R`, the
-/// reflectors' vectors (with an implicit leading 1) lie below it, `tau[j]` are their
-/// scalars. Fails if a diagonal entry of `R` is zero or not finite.
 /// `acc_c += x_c^2 d2` for every `c`.
 #[inline(always)]
 fn add_squares(acc: &mut [f64], x: &[f64], d2: f64) {
@@ -745,6 +955,11 @@ pub(crate) fn row_nodes(row: usize, n: usize, intervals: usize) -> (usize, usize
     }
 }
 
+/// Householder QR of the first `p` columns of the column-major `rows x cols` matrix `a`
+/// (leading dimension `rows`), applied to all `cols` columns (LAPACK's `dgeqr2` + `dorm2r`
+/// in one sweep). On return the upper triangle of the first `p` columns is `R`, the
+/// reflectors' vectors (with an implicit leading 1) lie below it, `tau[j]` are their
+/// scalars. Fails if a diagonal entry of `R` is zero or not finite.
 #[inline(always)]
 fn householder_qr(
     a: &mut [f64],
@@ -1261,12 +1476,13 @@ pub(crate) mod tests {
             let x: Vec<f64> = (0..order).map(|i| (0.3 * i as f64).cos()).collect();
             let b = multiply(&values, n, k, nn, &x);
             let mut abd = BorderedAbd::new(n, k, nn);
+            abd.set_try_separated(false);
             abd.factor(&values).unwrap();
             assert_eq!(abd.method(), method, "N = {nn}");
             let growth = abd.growth();
             match method {
                 Factorization::StructuredLu => assert!(growth > 10.0, "growth {growth}"),
-                Factorization::StructuredQr => assert!(growth <= 1.0 + 1e-12, "growth {growth}"),
+                _ => assert!(growth <= 1.0 + 1e-12, "growth {growth}"),
             }
             let mut y = b.clone();
             assert!(abd.solve_in_place(&mut y));
@@ -1277,6 +1493,149 @@ pub(crate) mod tests {
                 abd.sweep_sized(&values, Factorization::StructuredLu)
                     .expect_err("elimination stops once its growth passes the limit");
             }
+            // The boundary rows are separated: elimination over whole columns (the rows at
+            // a first) does not grow here, on either mesh, and solves as accurately.
+            let mut sep = BorderedAbd::new(n, k, nn);
+            sep.factor(&values).unwrap();
+            assert_eq!(sep.method(), Factorization::SeparatedLu, "N = {nn}");
+            let growth = sep.growth();
+            assert!(
+                growth > 0.1 && growth < 10.0,
+                "N = {nn}: separated growth {growth}"
+            );
+            let mut y = b.clone();
+            assert!(sep.solve_in_place(&mut y));
+            let err = max_rel(&y, &x);
+            assert!(err < 1e-12, "N = {nn}: separated error {err:e}");
+        }
+    }
+
+    /// `random_system` with separated boundary rows: `na` of them (every other one, from
+    /// the second) touch only `y_0` and `p`, the others only `y_N` and `p`.
+    fn random_separated(
+        n: usize,
+        k: usize,
+        nn: usize,
+        na: usize,
+        seed: u64,
+    ) -> (Vec<f64>, DMatrix<f64>) {
+        let (mut values, mut dense) = random_system(n, k, nn, seed);
+        let wc = 2 * n + k;
+        let at_a: Vec<usize> = (0..n + k)
+            .map(|r| (2 * r + 1) % (n + k + (n + k + 1) % 2))
+            .filter(|&r| r < n + k)
+            .take(na)
+            .collect();
+        assert_eq!(at_a.len(), na);
+        for r in 0..n + k {
+            let row = nn * n + r;
+            let (zero, dense_cols) = if at_a.contains(&r) {
+                (n..2 * n, nn * n..(nn + 1) * n)
+            } else {
+                (0..n, 0..n)
+            };
+            values[row * wc + zero.start..row * wc + zero.end].fill(0.0);
+            for c in dense_cols {
+                dense[(row, c)] = 0.0;
+            }
+        }
+        (values, dense)
+    }
+
+    /// Separated boundary rows, as many at `a` as none, some, `n`, and all `n + k`: the
+    /// separated elimination is chosen, and its solve, transposed solve and blocked solve
+    /// agree with nalgebra's dense LU and with each other bit for bit (blocked against
+    /// single); the general layout on the same matrix agrees to rounding.
+    #[test]
+    fn separated_solves_match_dense_lu() {
+        for (n, k, nn, na) in [
+            (1, 0, 1, 1),
+            (2, 1, 1, 1),
+            (2, 0, 3, 0),
+            (3, 1, 5, 4),
+            (3, 2, 4, 2),
+            (4, 1, 30, 2),
+            (12, 1, 40, 6),
+            (12, 1, 7, 12),
+            (24, 1, 6, 12),
+        ] {
+            let (values, dense) = random_separated(n, k, nn, na, (n * 13 + k * 5 + nn + na) as u64);
+            let order = dense.nrows();
+            let mut abd = BorderedAbd::new(n, k, nn);
+            abd.factor(&values)
+                .expect("random matrices are nonsingular");
+            assert_eq!(
+                abd.method(),
+                Factorization::SeparatedLu,
+                "({n},{k},{nn},{na})"
+            );
+            let growth = abd.growth();
+            assert!(growth > 0.1 && growth <= LU_GROWTH_LIMIT, "growth {growth}");
+            let pivot = abd.min_pivot();
+            assert!(pivot > 0.0 && pivot.is_finite(), "min pivot {pivot}");
+            let mut rnd = stream(5);
+            let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
+            let expected = dense
+                .clone()
+                .lu()
+                .solve(&DVector::from_vec(b.clone()))
+                .unwrap();
+            let mut x = b.clone();
+            assert!(abd.solve_in_place(&mut x));
+            let err = max_rel(&x, expected.as_slice());
+            assert!(err < 1e-10, "({n},{k},{nn},{na}) solve error {err:e}");
+            let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
+            let scaled_t = (&d * &dense).transpose();
+            let expected_t = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
+            let mut xt = b.clone();
+            assert!(abd.solve_scaled_transpose_in_place(&mut xt));
+            let err = max_rel(&xt, expected_t.as_slice());
+            assert!(
+                err < 1e-10,
+                "({n},{k},{nn},{na}) transposed solve error {err:e}"
+            );
+            // Blocked solves: every column the bits of its own solve, also with zero
+            // interval rows (the separated layout still carries the rows at a).
+            for zero_intervals in [false, true] {
+                let r = 3;
+                let mut rnd = stream(17);
+                let mut cols: Vec<Vec<f64>> = (0..r)
+                    .map(|_| (0..order).map(|_| rnd()).collect())
+                    .collect();
+                if zero_intervals {
+                    for c in &mut cols {
+                        c[..nn * n].fill(0.0);
+                    }
+                }
+                let mut xm = vec![0.0; order * r];
+                for (c, col) in cols.iter().enumerate() {
+                    for (i, v) in col.iter().enumerate() {
+                        xm[i * r + c] = *v;
+                    }
+                }
+                assert!(abd.solve_scaled_multi_in_place(&mut xm, r, zero_intervals));
+                for (c, col) in cols.iter_mut().enumerate() {
+                    assert!(abd.solve_scaled_in_place(col));
+                    for (i, v) in col.iter().enumerate() {
+                        assert!(
+                            xm[i * r + c] == *v,
+                            "({n},{k},{nn},{na}) zero {zero_intervals}: column {c} entry {i}"
+                        );
+                    }
+                }
+            }
+            // The general layout of the same matrix: the same solution to rounding.
+            let mut general = BorderedAbd::new(n, k, nn);
+            general.set_try_separated(false);
+            general.factor(&values).unwrap();
+            assert_ne!(general.method(), Factorization::SeparatedLu);
+            let mut y = b.clone();
+            assert!(general.solve_in_place(&mut y));
+            let err = max_rel(&y, &x);
+            assert!(
+                err < 1e-10,
+                "({n},{k},{nn},{na}) separated vs general {err:e}"
+            );
         }
     }
 

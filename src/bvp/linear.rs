@@ -15,7 +15,8 @@
 //!          +-----+-----+-----+-----+----+
 //! ```
 //!
-//! The matrix is factored by structured elimination, or structured QR where elimination
+//! The matrix is factored by structured elimination (in blocks without the `y_0` border
+//! when the boundary rows are separated), or structured QR where elimination
 //! grows ([`abd`](super::abd)): `O(N n^2 (n + k))` work,
 //! storage linear in the number of intervals, no symbolic analysis, no allocation in the
 //! Newton loop. The values live in [`global_jacobian_pattern`] order, which is the blocks'

@@ -114,7 +114,8 @@
 //! ```
 //!
 //! It is factored one interval at a time after row equilibration ([`abd`]), by structured
-//! elimination (partial pivoting inside each block) with structured QR as the fallback when
+//! elimination (partial pivoting inside each block; with separated boundary conditions,
+//! partial pivoting over whole columns and no `y_0` border) with structured QR as the fallback when
 //! the elimination's growth or a tiny pivot says it may be inaccurate: work and memory are
 //! linear in the number of intervals, nothing is allocated in the Newton loop, and the growth
 //! is reported in [`Stats::factor_growth`] ([`Stats::factorization`] says which reduction).

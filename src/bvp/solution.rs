@@ -131,7 +131,7 @@ pub struct Stats {
     /// Growth of the structured factorisation of that matrix: the largest entry of its
     /// triangular factor (and, for elimination, of every intermediate carried row) relative to
     /// the 2-norm of its column of the row-equilibrated matrix. For the structured QR at most
-    /// 1 up to rounding; for structured LU (the default) the elimination's growth factor, at
+    /// 1 up to rounding; for either LU (the default) the elimination's growth factor, at
     /// most `1e3` (beyond that the factorisation is redone by QR); reported as evidence of a
     /// stable solve. Which of the two: [`factorization`](Self::factorization).
     pub factor_growth: f64,
@@ -139,8 +139,8 @@ pub struct Stats {
     /// matrix (small when the matrix is near singular; in (0, 1] for QR, at least `1e-10` for
     /// LU, whose tinier pivots switch to QR).
     pub factor_min_pivot: f64,
-    /// The reduction of that factorisation: structured LU, or structured QR when elimination
-    /// grew too much or met a tiny pivot.
+    /// The reduction of that factorisation: separated LU (boundary conditions separated),
+    /// structured LU, or structured QR when elimination grew too much or met a tiny pivot.
     pub factorization: Factorization,
     /// Newton solves (over all meshes) that stopped rounding-limited: a fresh correction
     /// below the tolerance that no longer contracts (`bvp::newton` module docs).
