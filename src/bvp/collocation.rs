@@ -225,7 +225,7 @@ impl Collocation {
             abp: vec![0.0; nn * n * wc],
             bc_blocks: vec![0.0; (n + k) * wc],
             z: vec![0.0; nn * s],
-            work: vec![0.0; 2 * n + k],
+            work: vec![0.0; (3 * n).max(2 * n + k)],
             cond_work: vec![0.0; 3 * n * n],
             bc_work: vec![0.0; 4 * n + 3 * k + (n + k) * wc],
         }
@@ -506,15 +506,23 @@ impl Collocation {
         let tab = &self.tab;
         let (glob, stages) = delta.split_at_mut(so);
         let dp = &glob[po..po + k];
-        let (j1y, j4y) = self.work.split_at_mut(n);
+        // `J(y_i) dy_i` is needed by the intervals on both sides of node i: computed once,
+        // as `j4y` of interval i - 1, and kept as `j1y` of interval i.
+        let (j1y, rest) = self.work.split_at_mut(n);
+        let (j4y, scratch) = rest.split_at_mut(n);
+        let scratch = &mut scratch[..n];
+        for (r, v) in j1y.iter_mut().enumerate() {
+            *v = dot(&self.jy_nodes[r * n..(r + 1) * n], &glob[..n]);
+        }
         for i in 0..self.lay.intervals() {
             let h = self.h[i];
             let dyi = &glob[i * n..(i + 1) * n];
             let dyj = &glob[(i + 1) * n..(i + 2) * n];
-            let j1 = &self.jy_nodes[i * n2..(i + 1) * n2];
+            if i > 0 {
+                j1y.copy_from_slice(j4y);
+            }
             let j4 = &self.jy_nodes[(i + 1) * n2..(i + 2) * n2];
             for r in 0..n {
-                j1y[r] = dot(&j1[r * n..(r + 1) * n], dyi);
                 j4y[r] = dot(&j4[r * n..(r + 1) * n], dyj);
             }
             let mp = &self.mp[i * s * k..(i + 1) * s * k];
@@ -537,7 +545,7 @@ impl Collocation {
                 let (k11, rest) = klu.split_at(n2);
                 let (sm, g) = rest.split_at(n2);
                 let (r2, r3) = v.split_at_mut(n);
-                let t = &mut j1y[..n];
+                let t = &mut scratch[..];
                 t.copy_from_slice(r2);
                 lu_solve(k11, n, &piv[..n], t, 1);
                 for c in 0..n {
