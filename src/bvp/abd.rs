@@ -1303,7 +1303,6 @@ pub(crate) mod tests {
         ] {
             for lu in [true, false] {
                 let (values, dense) = random_system(n, k, nn, (n * 100 + k * 10 + nn) as u64);
-                let order = dense.nrows();
                 let mut abd = BorderedAbd::new(n, k, nn);
                 abd.set_try_lu(lu);
                 abd.factor(&values)
@@ -1321,22 +1320,7 @@ pub(crate) mod tests {
                 if !lu {
                     assert!(pivot <= 1.0 + 1e-12, "min pivot {pivot}");
                 }
-                let mut rnd = stream(7);
-                let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
-                let lu = dense.clone().lu();
-                let expected = lu.solve(&DVector::from_vec(b.clone())).unwrap();
-                let mut x = b.clone();
-                assert!(abd.solve_in_place(&mut x));
-                let err = max_rel(&x, expected.as_slice());
-                assert!(err < 1e-10, "({n},{k},{nn}) solve error {err:e}");
-                // (D J)^T x = b.
-                let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
-                let scaled_t = (&d * &dense).transpose();
-                let expected = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
-                let mut x = b.clone();
-                assert!(abd.solve_scaled_transpose_in_place(&mut x));
-                let err = max_rel(&x, expected.as_slice());
-                assert!(err < 1e-10, "({n},{k},{nn}) transposed solve error {err:e}");
+                assert_solves_match_dense(&mut abd, &dense, 7, &format!("({n},{k},{nn})"));
             }
         }
     }
@@ -1355,40 +1339,85 @@ pub(crate) mod tests {
             (24, 1, 6, 25),
         ] {
             for lu in [true, false] {
-                let (values, dense) = random_system(n, k, nn, (n * 31 + k * 7 + nn) as u64);
-                let order = dense.nrows();
+                let (values, _) = random_system(n, k, nn, (n * 31 + k * 7 + nn) as u64);
                 let mut abd = BorderedAbd::new(n, k, nn);
                 abd.set_try_lu(lu);
                 abd.factor(&values)
                     .expect("random matrices are nonsingular");
-                for zero_intervals in [false, true] {
-                    let mut rnd = stream(11 + r as u64);
-                    let mut cols: Vec<Vec<f64>> = (0..r)
-                        .map(|_| (0..order).map(|_| rnd()).collect())
-                        .collect();
-                    if zero_intervals {
-                        for c in &mut cols {
-                            c[..nn * n].fill(0.0);
-                        }
-                    }
-                    let mut x = vec![0.0; order * r];
-                    for (c, col) in cols.iter().enumerate() {
-                        for (i, v) in col.iter().enumerate() {
-                            x[i * r + c] = *v;
-                        }
-                    }
-                    assert!(abd.solve_scaled_multi_in_place(&mut x, r, zero_intervals));
-                    for (c, col) in cols.iter_mut().enumerate() {
-                        assert!(abd.solve_scaled_in_place(col));
-                        for (i, v) in col.iter().enumerate() {
-                            assert!(
-                                x[i * r + c] == *v,
-                                "({n},{k},{nn}) lu {lu} zero {zero_intervals}: column {c} \
-                                 entry {i}: {} against {v}",
-                                x[i * r + c]
-                            );
-                        }
-                    }
+                let label = format!("({n},{k},{nn}) lu {lu}");
+                assert_blocked_equals_single(&mut abd, n, nn, r, 11 + r as u64, &label);
+            }
+        }
+    }
+
+    /// A random right-hand side `b` (`seed`): the solve and the transposed solve (of the
+    /// row-equilibrated matrix) agree with nalgebra's dense LU to 1e-10; returns `b` and the
+    /// solution.
+    fn assert_solves_match_dense(
+        abd: &mut BorderedAbd,
+        dense: &DMatrix<f64>,
+        seed: u64,
+        label: &str,
+    ) -> (Vec<f64>, Vec<f64>) {
+        let mut rnd = stream(seed);
+        let b: Vec<f64> = (0..dense.nrows()).map(|_| rnd()).collect();
+        let expected = dense
+            .clone()
+            .lu()
+            .solve(&DVector::from_vec(b.clone()))
+            .unwrap();
+        let mut x = b.clone();
+        assert!(abd.solve_in_place(&mut x));
+        let err = max_rel(&x, expected.as_slice());
+        assert!(err < 1e-10, "{label} solve error {err:e}");
+        // (D J)^T x = b.
+        let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
+        let scaled_t = (&d * dense).transpose();
+        let expected = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
+        let mut xt = b.clone();
+        assert!(abd.solve_scaled_transpose_in_place(&mut xt));
+        let err = max_rel(&xt, expected.as_slice());
+        assert!(err < 1e-10, "{label} transposed solve error {err:e}");
+        (b, x)
+    }
+
+    /// `r` random right-hand sides (`seed`), once as they are and once with their interval
+    /// rows zeroed (`zero_intervals`): the blocked solve gives every column the bits of its
+    /// own single solve.
+    fn assert_blocked_equals_single(
+        abd: &mut BorderedAbd,
+        n: usize,
+        nn: usize,
+        r: usize,
+        seed: u64,
+        label: &str,
+    ) {
+        let order = abd.order();
+        for zero_intervals in [false, true] {
+            let mut rnd = stream(seed);
+            let mut cols: Vec<Vec<f64>> = (0..r)
+                .map(|_| (0..order).map(|_| rnd()).collect())
+                .collect();
+            if zero_intervals {
+                for c in &mut cols {
+                    c[..nn * n].fill(0.0);
+                }
+            }
+            let mut x = vec![0.0; order * r];
+            for (c, col) in cols.iter().enumerate() {
+                for (i, v) in col.iter().enumerate() {
+                    x[i * r + c] = *v;
+                }
+            }
+            assert!(abd.solve_scaled_multi_in_place(&mut x, r, zero_intervals));
+            for (c, col) in cols.iter_mut().enumerate() {
+                assert!(abd.solve_scaled_in_place(col));
+                for (i, v) in col.iter().enumerate() {
+                    assert!(
+                        x[i * r + c] == *v,
+                        "{label} zero {zero_intervals}: column {c} entry {i}: {} against {v}",
+                        x[i * r + c]
+                    );
                 }
             }
         }
@@ -1560,7 +1589,6 @@ pub(crate) mod tests {
             (24, 1, 6, 12),
         ] {
             let (values, dense) = random_separated(n, k, nn, na, (n * 13 + k * 5 + nn + na) as u64);
-            let order = dense.nrows();
             let mut abd = BorderedAbd::new(n, k, nn);
             abd.factor(&values)
                 .expect("random matrices are nonsingular");
@@ -1573,57 +1601,12 @@ pub(crate) mod tests {
             assert!(growth > 0.1 && growth <= LU_GROWTH_LIMIT, "growth {growth}");
             let pivot = abd.min_pivot();
             assert!(pivot > 0.0 && pivot.is_finite(), "min pivot {pivot}");
-            let mut rnd = stream(5);
-            let b: Vec<f64> = (0..order).map(|_| rnd()).collect();
-            let expected = dense
-                .clone()
-                .lu()
-                .solve(&DVector::from_vec(b.clone()))
-                .unwrap();
-            let mut x = b.clone();
-            assert!(abd.solve_in_place(&mut x));
-            let err = max_rel(&x, expected.as_slice());
-            assert!(err < 1e-10, "({n},{k},{nn},{na}) solve error {err:e}");
-            let d = DMatrix::from_diagonal(&DVector::from_vec(abd.row_scale().to_vec()));
-            let scaled_t = (&d * &dense).transpose();
-            let expected_t = scaled_t.lu().solve(&DVector::from_vec(b.clone())).unwrap();
-            let mut xt = b.clone();
-            assert!(abd.solve_scaled_transpose_in_place(&mut xt));
-            let err = max_rel(&xt, expected_t.as_slice());
-            assert!(
-                err < 1e-10,
-                "({n},{k},{nn},{na}) transposed solve error {err:e}"
-            );
+            let (b, x) =
+                assert_solves_match_dense(&mut abd, &dense, 5, &format!("({n},{k},{nn},{na})"));
             // Blocked solves: every column the bits of its own solve, also with zero
             // interval rows (the separated layout still carries the rows at a).
-            for zero_intervals in [false, true] {
-                let r = 3;
-                let mut rnd = stream(17);
-                let mut cols: Vec<Vec<f64>> = (0..r)
-                    .map(|_| (0..order).map(|_| rnd()).collect())
-                    .collect();
-                if zero_intervals {
-                    for c in &mut cols {
-                        c[..nn * n].fill(0.0);
-                    }
-                }
-                let mut xm = vec![0.0; order * r];
-                for (c, col) in cols.iter().enumerate() {
-                    for (i, v) in col.iter().enumerate() {
-                        xm[i * r + c] = *v;
-                    }
-                }
-                assert!(abd.solve_scaled_multi_in_place(&mut xm, r, zero_intervals));
-                for (c, col) in cols.iter_mut().enumerate() {
-                    assert!(abd.solve_scaled_in_place(col));
-                    for (i, v) in col.iter().enumerate() {
-                        assert!(
-                            xm[i * r + c] == *v,
-                            "({n},{k},{nn},{na}) zero {zero_intervals}: column {c} entry {i}"
-                        );
-                    }
-                }
-            }
+            let label = format!("({n},{k},{nn},{na})");
+            assert_blocked_equals_single(&mut abd, n, nn, 3, 17, &label);
             // The general layout of the same matrix: the same solution to rounding.
             let mut general = BorderedAbd::new(n, k, nn);
             general.set_try_separated(false);
