@@ -125,8 +125,9 @@ pub(crate) enum AbdError {
     Singular,
 }
 
-/// The block layout of a factorisation: how many rows are carried from block to block, how
-/// wide the `y_0` border is, and which node the first block eliminates.
+/// The block layout of a factorisation: how many rows are carried from block to block and
+/// how wide the `y_0` border is (which also says which node the first block eliminates:
+/// [`Shape::first_node`]).
 ///
 /// * General boundary rows: `nc = n` carried rows (interval 0's rows to begin with), a
 ///   border of `bw = n` columns (`y_0`), blocks eliminating `y_1 .. y_{N-1}` (`t0 = 1`); the
@@ -140,16 +141,17 @@ pub(crate) enum AbdError {
 struct Shape {
     nc: usize,
     bw: usize,
-    t0: usize,
 }
 
 impl Shape {
     fn general(n: usize) -> Self {
-        Shape {
-            nc: n,
-            bw: n,
-            t0: 1,
-        }
+        Shape { nc: n, bw: n }
+    }
+
+    /// The node the first block eliminates, `t0`: `y_1` with the `y_0` border (interval 0's
+    /// rows are the first carried rows), `y_0` without it.
+    fn first_node(self) -> usize {
+        usize::from(self.bw > 0)
     }
 }
 
@@ -360,7 +362,7 @@ impl BorderedAbd {
             if self.steps.len() < need {
                 self.steps.resize(need, 0.0);
             }
-            self.shape = Shape { nc, bw: 0, t0: 0 };
+            self.shape = Shape { nc, bw: 0 };
             if self.sweep_sized(values, Factorization::SeparatedLu).is_ok() && acceptable(self) {
                 self.method = Factorization::SeparatedLu;
                 self.factored = true;
@@ -418,7 +420,7 @@ impl BorderedAbd {
         debug_assert_eq!((nc, bw), (self.shape.nc, self.shape.bw));
         let nn = self.intervals;
         let lu = method != Factorization::StructuredQr;
-        let t0 = self.shape.t0;
+        let t0 = self.shape.first_node();
         let wc = 2 * n + k;
         let po = (nn + 1) * n;
         let s = nc + n;
@@ -623,7 +625,7 @@ impl BorderedAbd {
             return false;
         }
         let nn = self.intervals;
-        let t0 = self.shape.t0;
+        let t0 = self.shape.first_node();
         let s = nc + n;
         let pc = 2 * n + bw;
         let block = s * (pc + k);
@@ -746,7 +748,7 @@ impl BorderedAbd {
         if !self.factored || r == 0 {
             return self.factored;
         }
-        let t0 = self.shape.t0;
+        let t0 = self.shape.first_node();
         let s = nc + n;
         let pc = 2 * n + bw;
         let block = s * (pc + k);
@@ -854,7 +856,8 @@ impl BorderedAbd {
             return false;
         }
         let (n, k, nn) = (self.n, self.k, self.intervals);
-        let Shape { nc, bw, t0 } = self.shape;
+        let Shape { nc, bw } = self.shape;
+        let t0 = self.shape.first_node();
         let s = nc + n;
         let pc = 2 * n + bw;
         let block = s * (pc + k);
