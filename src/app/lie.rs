@@ -417,6 +417,16 @@ pub(super) fn summarize<M: Model>(name: &str, sol: &LieSolution<M>) -> (CaseSumm
             "factor_min_pivot": finite(stats.factor_min_pivot),
         }),
     );
+    // The discrete equations on the final mesh, in tolerance units: their largest defect, and
+    // the same before the allowance for the rounding of f (above 1: they hold to f's rounding,
+    // not to the tolerance, on some intervals; bvp::mesh).
+    c.extra.insert(
+        "discrete_defect".into(),
+        serde_json::json!({
+            "max": finite(stats.max_defect),
+            "before_rounding_allowance": finite(stats.max_raw_defect),
+        }),
+    );
     if let Err(e) = &reintegration {
         c.extra
             .insert("reintegration_error".into(), serde_json::json!(e));

@@ -321,6 +321,8 @@ fn build_solution<P: BvpProblem + ?Sized>(
     stats.max_error = est.max_error;
     stats.max_residual = est.max_residual;
     stats.bc_residual = est.bc_residual;
+    stats.max_defect = est.max_defect;
+    stats.max_raw_defect = est.max_raw_defect;
     stats.f_evaluations = ev.f_evals.get();
     stats.bc_evaluations = ev.bc_evals.get();
     Solution {
@@ -498,6 +500,9 @@ pub fn solve_with_progress<P: BvpProblem + ?Sized>(
                 newton_converged: newton_ok,
                 max_error: est.max_error,
                 max_residual: est.max_residual,
+                max_defect: est.max_defect,
+                max_raw_defect: est.max_raw_defect,
+                bc_residual: est.bc_residual,
                 next_nodes: match &step {
                     NextStep::Resolve(nx) | NextStep::Coarsen(nx) => Some(nx.len()),
                     NextStep::Finish(_) => None,

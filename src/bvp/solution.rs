@@ -122,6 +122,14 @@ pub struct Stats {
     pub max_residual: f64,
     /// `max |g(y(a), y(b), p)|` at the returned solution.
     pub bc_residual: f64,
+    /// Largest scaled defect of the discrete equations (continuity and stage equations,
+    /// accumulated over the horizon, in tolerance units; `<= 1` for a converged solution),
+    /// after the allowance for the rounding of `f` (`bvp::mesh` module docs).
+    pub max_defect: f64,
+    /// [`Self::max_defect`] before that allowance. Above 1, the discrete equations hold to the
+    /// rounding of `f` on some intervals, not to the tolerance: `f` there is a small difference
+    /// of large terms, and the solution's accuracy rests on its error estimate and checks.
+    pub max_raw_defect: f64,
     /// Sensitivity of the discrete solution to the boundary data on the last mesh:
     /// `max_r ||J^{-1} e_r||_inf` over boundary rows `r` (see `Options::conditioning_limit`).
     pub bc_condition: f64,
@@ -180,6 +188,14 @@ pub enum ProgressEvent {
         max_error: f64,
         /// Largest RMS relative residual.
         max_residual: f64,
+        /// Largest scaled defect of the discrete equations after Newton (continuity and stage
+        /// defects accumulated over the interval, in tolerance units: `<= 1` passes), after
+        /// the allowance for the rounding of `f`.
+        max_defect: f64,
+        /// The same before that allowance.
+        max_raw_defect: f64,
+        /// `max |g|` of the boundary conditions.
+        bc_residual: f64,
         /// Nodes of the next mesh, if there is one.
         next_nodes: Option<usize>,
     },
@@ -195,12 +211,25 @@ impl std::fmt::Display for Progress {
                 "Newton {iteration}: |dx| = {correction_norm:.2e}, damping {damping:.3}, {} Jacobian",
                 if *fresh_jacobian { "new" } else { "reused" }
             ),
-            ProgressEvent::MeshPass { newton_converged, max_error, max_residual, next_nodes } => {
+            ProgressEvent::MeshPass {
+                newton_converged,
+                max_error,
+                max_residual,
+                max_defect,
+                max_raw_defect,
+                bc_residual,
+                next_nodes,
+            } => {
                 write!(
                     f,
-                    "Newton {}, max error {max_error:.2e}, max residual {max_residual:.2e}",
+                    "Newton {}, max error {max_error:.2e}, max residual {max_residual:.2e}, \
+                     discrete defect {max_defect:.2e}",
                     if *newton_converged { "converged" } else { "failed" }
                 )?;
+                if max_raw_defect > max_defect {
+                    write!(f, " ({max_raw_defect:.2e} before the rounding of f)")?;
+                }
+                write!(f, ", boundary residual {bc_residual:.1e}")?;
                 match next_nodes {
                     Some(m) => write!(f, ", next mesh {m} nodes"),
                     None => write!(f, ", done"),
