@@ -187,7 +187,7 @@ impl Verification {
         let mut checks = vec![
             Check::new(
                 "local_error",
-                "max h_i |y' - T f(y)| / (1 + |y|) on the fine grid (tolerance units)",
+                "max h_i |y' - T f(y)| / (1 + |y|) on the fine grid (a relative error, like the tolerance)",
                 d.max_local_error,
                 K_LOCAL_ERROR * t,
             ),
