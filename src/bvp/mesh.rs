@@ -222,7 +222,7 @@ fn interval_defect(
             ),
         ];
         for (r, v, w) in eqs {
-            let floor = level.map_or(0.0, |level| {
+            let floor = level.filter(|l| l[j].is_finite()).map_or(0.0, |level| {
                 let weights: f64 = w.iter().map(|x| x.abs()).sum();
                 ROUNDING_ALLOWANCE * (h * weights * level[j] + f64::EPSILON * (v.abs() + y0.abs()))
             });
@@ -280,7 +280,13 @@ fn rounding_levels<P: BvpProblem + ?Sized>(
             }
             ev.eval_f(col.x[i] + col.tab.c[s] * col.h[i], &yp, &pp, &mut fp);
             for ((l, a), b) in level.iter_mut().zip(&fp).zip(f) {
-                *l = l.max((a - b).abs());
+                // A probe that is not finite makes the level infinite, which allows nothing.
+                let d = (a - b).abs();
+                *l = if d.is_finite() {
+                    l.max(d)
+                } else {
+                    f64::INFINITY
+                };
             }
         }
     }
