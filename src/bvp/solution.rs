@@ -189,7 +189,7 @@ pub enum ProgressEvent {
         /// Largest RMS relative residual.
         max_residual: f64,
         /// Largest scaled defect of the discrete equations after Newton (continuity and stage
-        /// defects accumulated over the interval, in tolerance units: `<= 1` passes), after
+        /// defects accumulated over the horizon, in tolerance units: `<= 1` passes), after
         /// the allowance for the rounding of `f`.
         max_defect: f64,
         /// The same before that allowance.
