@@ -15,8 +15,8 @@ use ocpkit::{dense, dense_reduced};
 use suslov::ocp::certify::{second_order, second_order_near};
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
-    certify, sqp, Boundary, Certificate, Horizon, LinearCondition, NewtonOptions, OcpProblem,
-    SecondOrderOptions, SqpError, SqpOptions, Transcription, Verdict,
+    certify, certify_with_costates, sqp, Boundary, Certificate, Horizon, LinearCondition,
+    NewtonOptions, OcpProblem, SecondOrderOptions, SqpError, SqpOptions, Transcription, Verdict,
 };
 
 /// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
@@ -649,6 +649,54 @@ fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
     );
     assert_eq!(cert.second_order.verdict, Verdict::Certified);
     assert!(cert.displacement < 1e-6, "{}", cert.displacement);
+
+    // Started from costates: those of the KKT point itself (λ_p / ω_p) reach it too; from
+    // costates far off (10⁸, alternating) Newton needs two iterations, so with a limit of
+    // one it fails from them, and the certificate falls back to the least-squares start: its
+    // candidate residual is then the plain one, to the bit.
+    let w = tr.quadrature_weights();
+    let nx = tr.n_state();
+    let own: Vec<f64> = tr
+        .point_multipliers(&point.y)
+        .iter()
+        .enumerate()
+        .map(|(i, l)| l / w[i / nx])
+        .collect();
+    let wild: Vec<f64> = (0..own.len())
+        .map(|i| if i % 2 == 0 { 1e8 } else { -1e8 })
+        .collect();
+    let (newton, second) = (NewtonOptions::default(), SecondOrderOptions::default());
+    let from_own = certify_with_costates(&tr, point.v.clone(), Some(&own), &newton, &second)
+        .expect("certificate");
+    let one = NewtonOptions {
+        max_iterations: 1,
+        ..newton
+    };
+    let from_wild = certify_with_costates(&tr, point.v.clone(), Some(&wild), &one, &second)
+        .expect("certificate");
+    let unlimited = certify_with_costates(&tr, point.v.clone(), Some(&wild), &newton, &second)
+        .expect("certificate");
+    assert!(unlimited.newton_iterations > 1);
+    assert!(unlimited.candidate.relative_stationarity() > 1e6);
+    let gap = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+    };
+    for other in [&from_own, &from_wild] {
+        eprintln!(
+            "from costates: Newton {} its, gap v {:.1e}, y {:.1e}, candidate {:?}",
+            other.newton_iterations,
+            gap(&other.point.v, &cert.point.v),
+            gap(&other.point.y, &cert.point.y),
+            other.candidate
+        );
+        assert_eq!(other.second_order.verdict, Verdict::Certified);
+        assert!(gap(&other.point.v, &cert.point.v) < 1e-8);
+        assert!(gap(&other.point.y, &cert.point.y) < 1e-8);
+    }
+    assert!(from_own.candidate.relative_stationarity() < 1e-5);
+    assert_eq!(from_wild.candidate, cert.candidate);
 }
 
 /// One evaluation at the start shared by the multipliers and Newton (what `certify` does)
@@ -674,4 +722,81 @@ fn a_shared_first_evaluation_changes_no_bit() {
     assert_eq!(report_shared.residuals, report.residuals);
     assert!(report.residuals.len() >= 2, "a Newton step was taken");
     assert_eq!(pt_shared, pt);
+}
+
+/// The multipliers read from costates (`kkt::multipliers_from_costates`, Newton's start in
+/// `certify_with_costates`) on the oscillator at `T = 2`, whose exact costate is `π = −u`
+/// (`∂H/∂u = u + π = 0`): they approach the discrete (least-squares, here exact) multipliers
+/// as the mesh is refined; a constant costate is reproduced exactly (the last stage of
+/// Lobatto IIIA is its quadrature, `a_3j = b_j`); the certificate started from them reaches
+/// the point the least-squares start reaches, with the same verdict; and where they are not
+/// defined (path constraints, a costate array of the wrong length) there are none.
+#[test]
+fn multipliers_from_costates_approach_the_discrete_ones() {
+    let prob = Quadratic::oscillator(false);
+    let t_len: f64 = 2.0;
+    let st = t_len.sin();
+    let mut errors = Vec::new();
+    for n in [10, 20, 40, 80] {
+        let tr = oscillator_transcription(&prob, t_len, n);
+        let v0 = oscillator_extremal(&tr, t_len);
+        let pi: Vec<f64> = (0..tr.n_points())
+            .map(|p| -tr.point_time(p, t_len).cos() / st)
+            .collect();
+        let first = kkt::PrimalEvaluation::at(&tr, &v0);
+        let from_pi = kkt::multipliers_from_costates(&tr, &first, &pi).expect("multipliers");
+        let matrix = KktMatrix::new(&tr).expect("pattern");
+        let lsq = kkt::least_squares_multipliers_at(&matrix, &first).expect("multipliers");
+        let scale = lsq.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
+        let err = from_pi
+            .iter()
+            .zip(&lsq)
+            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()))
+            / scale;
+        errors.push(err);
+        // A constant costate: λ_p = ω_p π exactly (to rounding).
+        let ones = vec![1.0; tr.n_points()];
+        let lam = tr.point_multipliers(&tr.dynamics_multipliers_from_costates(&ones));
+        for (l, w) in lam.iter().zip(tr.quadrature_weights()) {
+            assert!((l - w).abs() <= 1e-15, "{l} against {w}");
+        }
+        // The certificate from them: the point and verdict of the least-squares start.
+        let opts = (NewtonOptions::default(), SecondOrderOptions::default());
+        let plain = certify(&tr, v0.clone(), &opts.0, &opts.1).expect("certificate");
+        let seeded =
+            certify_with_costates(&tr, v0, Some(&pi), &opts.0, &opts.1).expect("certificate");
+        let gap = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+        };
+        assert!(gap(&plain.point.v, &seeded.point.v) < 1e-12);
+        assert!(gap(&plain.point.y, &seeded.point.y) < 1e-12 * scale);
+        assert_eq!(plain.second_order.verdict, seeded.second_order.verdict);
+        assert_eq!(plain.second_order.inertia, seeded.second_order.inertia);
+        assert!(seeded.newton_iterations <= plain.newton_iterations);
+    }
+    let orders: Vec<f64> = errors.windows(2).map(|w| (w[0] / w[1]).log2()).collect();
+    eprintln!("multipliers from costates against least squares: {errors:?}, orders {orders:?}");
+    assert!(errors[0] < 1e-2, "{errors:?}");
+    assert!(orders.iter().all(|&q| q > 2.5), "{orders:?}");
+
+    // No multipliers where the costates do not give them all.
+    let pend = Pendulum {
+        delta: 0.2,
+        path: true,
+    };
+    let tr = pendulum_transcription(&pend, false);
+    let v: Vec<f64> = (0..tr.n_var()).map(|i| 0.1 * (i % 5) as f64).collect();
+    let first = kkt::PrimalEvaluation::at(&tr, &v);
+    let pi = vec![0.5; tr.n_points() * tr.n_state()];
+    assert!(kkt::multipliers_from_costates(&tr, &first, &pi).is_none());
+    let pend = Pendulum {
+        delta: 0.2,
+        path: false,
+    };
+    let tr = pendulum_transcription(&pend, false);
+    let first = kkt::PrimalEvaluation::at(&tr, &v[..tr.n_var()]);
+    assert!(kkt::multipliers_from_costates(&tr, &first, &pi[1..]).is_none());
+    assert!(kkt::multipliers_from_costates(&tr, &first, &pi).is_some());
 }

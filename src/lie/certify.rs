@@ -13,13 +13,16 @@
 //!    (`direct_dynamics`, `direct_cost`, `direct_hessian`).
 //! 2. **Transcription on the solution's own mesh** with the solver's collocation (4-stage
 //!    Lobatto IIIA; [`crate::ocp::transcription`]).
-//! 3. **KKT.** The indirect solution, sampled at the collocation points, with least-squares
-//!    multipliers: its KKT residual measures how far it is from a KKT point of the
-//!    discretized problem (discretization error: the indirect and direct discretizations are
-//!    different). Newton's method on the KKT system moves it to the exact KKT point nearby;
-//!    the displacement is reported. The discrete multipliers, read as costates
-//!    (`λ_p/ω_p`), are compared with the classical costates `π` computed from the solution's
-//!    `κ` (`classical_costates`): the multipliers *are* κ, up to discretization error.
+//! 3. **KKT.** The indirect solution, sampled at the collocation points, with the
+//!    multipliers its classical costates `π` give (computed from its `κ` by the generated
+//!    `classical_costates`; [`crate::ocp::kkt::multipliers_from_costates`]): its KKT residual
+//!    measures how far the pair is from a KKT point of the discretized problem
+//!    (discretization error: the indirect and direct discretizations are different).
+//!    Newton's method on the KKT system moves it to the exact KKT point nearby (one step on
+//!    the paper's meshes; from the least-squares multipliers instead where it fails from
+//!    these); the displacement is reported. The discrete multipliers it ends with, read as
+//!    costates (`λ_p/ω_p`), are compared with `π`: the multipliers *are* κ, up to
+//!    discretization error.
 //! 4. **Second order** ([`mod@crate::ocp::certify`]): the inertia of the KKT matrix decides
 //!    whether the reduced Hessian is positive definite; bisection gives its smallest
 //!    eigenvalue in the `∫|δξ̇|² dt + |δξ(a)|² (+ δb²)` metric.
@@ -322,23 +325,26 @@ pub fn certify<M: Model>(
         v0.push(sol.t_span);
     }
     let size = v0.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
-    let certificate = ocp::certify(&tr, v0, newton, opts)?;
+    // The classical costates π of the indirect solution at the points: Newton's start
+    // multipliers, and the reference of the discrete multipliers it ends with.
+    let bvp = LieBvp::new(&sol.problem);
+    let nx = LieOcp::<M>::NX;
+    let mut pi = vec![0.0; tr.n_points() * nx];
+    let mut w = vec![0.0; M::N_DESIRED];
+    for (p, pi_p) in pi.chunks_exact_mut(nx).enumerate() {
+        let t = tr.point_time(p, sol.t_span);
+        bvp.desired_at(t, &mut w);
+        M::classical_costates(&sol.state(t), sol.problem.params(), &w, pi_p);
+    }
+    let certificate = ocp::certify_with_costates(&tr, v0, Some(&pi), newton, opts)?;
     let t_len = tr.length(&certificate.point.v);
     let omega = tr.quadrature_weights();
     let lam = tr.point_multipliers(&certificate.point.y);
-    let bvp = LieBvp::new(&sol.problem);
-    let nx = LieOcp::<M>::NX;
     let (mut worst, mut scale) = (0.0_f64, 0.0_f64);
-    let mut pi = vec![0.0; nx];
-    let mut w = vec![0.0; M::N_DESIRED];
-    for p in 0..tr.n_points() {
-        let t = tr.point_time(p, sol.t_span);
-        let y = sol.state(t);
-        bvp.desired_at(t, &mut w);
-        M::classical_costates(&y, sol.problem.params(), &w, &mut pi);
+    for (p, pi_p) in pi.chunks_exact(nx).enumerate() {
         for r in 0..nx {
-            worst = worst.max((lam[p * nx + r] / omega[p] - pi[r]).abs());
-            scale = scale.max(pi[r].abs());
+            worst = worst.max((lam[p * nx + r] / omega[p] - pi_p[r]).abs());
+            scale = scale.max(pi_p[r].abs());
         }
     }
     Ok(SuslovCertificate {

@@ -34,10 +34,13 @@
 //!
 //! [`certify`] factorizes the KKT pattern for the least-squares multipliers and for each
 //! Newton step (solves only: each solve's backward error is checked, no inertia is needed),
-//! then, at a point it certifies, once more: the count at the margin's lower end `lo > 0`,
-//! which also decides the verdict (no eigenvalue below `lo > 0` implies SOSC), with the
-//! Lanczos estimate made from Newton's last factorization ([`second_order_near`]). A point
-//! that is not certified costs the factorization at `σ = 0` and the margin's counts.
+//! then, at a point it certifies, once more. [`certify_with_costates`], for a candidate with
+//! costates (an indirect solution), starts Newton from the multipliers they give and saves
+//! the least-squares factorization. The last factorization is the count at the margin's
+//! lower end `lo > 0`, which also decides the verdict (no eigenvalue below `lo > 0` implies
+//! SOSC), with the Lanczos estimate made from Newton's last factorization
+//! ([`second_order_near`]). A point that is not certified costs the factorization at `σ = 0`
+//! and the margin's counts.
 
 use super::conjugate::{first_conjugate_point, ConjugateReport};
 use super::inertia::{Inertia, InertiaError, LbltFactor};
@@ -838,8 +841,11 @@ fn lanczos(
 /// Everything [`certify`] establishes about a candidate solution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Certificate {
-    /// KKT residual of the candidate itself, with its least-squares multipliers: how far the
+    /// KKT residual of the candidate itself, with Newton's start multipliers: how far the
     /// candidate (e.g. an indirect solution) is from a KKT point of the discretized problem.
+    /// The start multipliers are the least-squares ones (the smallest residual any multipliers
+    /// give at the candidate), or, with [`certify_with_costates`], those of its costates,
+    /// whose own discretization error the residual then includes.
     pub candidate: KktResidual,
     /// Newton iterations from the candidate to the exact KKT point.
     pub newton_iterations: usize,
@@ -884,10 +890,26 @@ pub enum CertifyError {
 
 /// From a candidate primal point `v0` (an indirect solution sampled at the collocation
 /// points): least-squares multipliers, Newton's method to the exact KKT point of the
-/// discretized problem, and the second-order test there.
+/// discretized problem, and the second-order test there. (With the candidate's costates,
+/// [`certify_with_costates`] saves the factorization of the least-squares multipliers.)
 pub fn certify<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
     v0: Vec<f64>,
+    newton_opts: &NewtonOptions,
+    opts: &SecondOrderOptions,
+) -> Result<Certificate, CertifyError> {
+    certify_with_costates(tr, v0, None, newton_opts, opts)
+}
+
+/// [`certify`] with the candidate's costates `pi` (`P × n` at the transcription's points),
+/// when it has them (an indirect solution): Newton's method then starts from the multipliers
+/// they give ([`kkt::multipliers_from_costates`]) instead of the least-squares multipliers,
+/// which saves a factorization of the KKT pattern. Without them, or where they give none,
+/// as [`certify`].
+pub fn certify_with_costates<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    v0: Vec<f64>,
+    costates: Option<&[f64]>,
     newton_opts: &NewtonOptions,
     opts: &SecondOrderOptions,
 ) -> Result<Certificate, CertifyError> {
@@ -899,9 +921,27 @@ pub fn certify<P: OcpProblem + ?Sized>(
     }
     let matrix = KktMatrix::new(tr)?;
     let first = PrimalEvaluation::at(tr, &v0);
-    let y0 = kkt::least_squares_multipliers_at(&matrix, &first)?;
-    let start = KktPoint { v: v0, y: y0 };
-    let (point, newton, near) = kkt::newton_from(tr, &matrix, start.clone(), first, newton_opts)?;
+    let from_costates = costates.and_then(|pi| kkt::multipliers_from_costates(tr, &first, pi));
+    // Newton from the costates' multipliers; where it fails (they may be far from the
+    // discrete ones on a coarse mesh), from the least-squares multipliers, as without them.
+    let mut first = Some(first);
+    let attempt = from_costates.and_then(|y| {
+        let start = KktPoint { v: v0.clone(), y };
+        let eval = first.take()?;
+        kkt::newton_from(tr, &matrix, start.clone(), eval, newton_opts)
+            .ok()
+            .map(|run| (start, run))
+    });
+    let (start, (point, newton, near)) = match attempt {
+        Some(done) => done,
+        None => {
+            let first = first.unwrap_or_else(|| PrimalEvaluation::at(tr, &v0));
+            let y0 = kkt::least_squares_multipliers_at(&matrix, &first)?;
+            let start = KktPoint { v: v0, y: y0 };
+            let run = kkt::newton_from(tr, &matrix, start.clone(), first, newton_opts)?;
+            (start, run)
+        }
+    };
     // Newton's first residual is the candidate's (`kkt::residual` at `start`).
     let candidate = newton.residuals[0];
     let displacement = point

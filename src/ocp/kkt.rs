@@ -324,6 +324,50 @@ pub fn least_squares_multipliers_at(
     multipliers_from(kkt, &eval.jacobian, &eval.gradient)
 }
 
+/// Multipliers at the point of `eval` from costates `pi` (`P × n`, e.g. an indirect
+/// solution's at the transcription's points), without a factorization: the dynamics rows
+/// from [`Transcription::dynamics_multipliers_from_costates`], then the boundary rows by
+/// least squares on the stationarity residual of the unknowns they involve (a dense problem
+/// of at most a few dozen entries). `None` when the transcription has path constraints (whose
+/// multipliers the costates do not give), when `pi` has the wrong length, or when the result
+/// is not finite: the caller then uses [`least_squares_multipliers_at`].
+///
+/// They are not the least-squares multipliers: they carry the costates' discretization error
+/// (relative `1e-7` on the paper's meshes), which one Newton step on the KKT conditions
+/// removes together with the primal point's.
+pub fn multipliers_from_costates<P: OcpProblem + ?Sized>(
+    tr: &Transcription<'_, P>,
+    eval: &PrimalEvaluation,
+    pi: &[f64],
+) -> Option<Vec<f64>> {
+    if tr.n_path() > 0 || pi.len() != tr.n_points() * tr.n_state() {
+        return None;
+    }
+    let mut y = tr.dynamics_multipliers_from_costates(pi);
+    let mut r = eval.gradient.clone();
+    add_transpose_product(&eval.jacobian, &y, &mut r);
+    let rows = tr.boundary_rows();
+    let entries: Vec<&Entry> = eval
+        .jacobian
+        .iter()
+        .filter(|e| rows.contains(&e.0))
+        .collect();
+    let mut cols: Vec<usize> = entries.iter().map(|e| e.1).collect();
+    cols.sort_unstable();
+    cols.dedup();
+    // min ‖r_cols + Bᵀ μ‖ over the boundary multipliers μ, B the boundary rows' entries.
+    let mut bt = nalgebra::DMatrix::<f64>::zeros(cols.len(), rows.len());
+    for &&(row, col, value) in &entries {
+        if let Ok(c) = cols.binary_search(&col) {
+            bt[(c, row - rows.start)] += value;
+        }
+    }
+    let rhs = nalgebra::DVector::from_iterator(cols.len(), cols.iter().map(|&c| -r[c]));
+    let mu = bt.svd(true, true).solve(&rhs, 1e-14).ok()?;
+    y[rows].copy_from_slice(mu.as_slice());
+    y.iter().all(|v| v.is_finite()).then_some(y)
+}
+
 /// The least-squares multipliers from the Jacobian `a` and the gradient `g` at a point.
 fn multipliers_from(kkt: &KktMatrix, a: &[Entry], g: &[f64]) -> Result<Vec<f64>, KktError> {
     let (nv, nc) = (kkt.n_var(), kkt.n_con());

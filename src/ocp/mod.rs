@@ -20,7 +20,8 @@ pub mod sqp;
 pub mod transcription;
 
 pub use certify::{
-    certify, Certificate, CertifyError, SecondOrderOptions, SecondOrderReport, Verdict,
+    certify, certify_with_costates, Certificate, CertifyError, SecondOrderOptions,
+    SecondOrderReport, Verdict,
 };
 pub use kkt::{KktError, KktPoint, KktResidual, NewtonOptions};
 pub use problem::{Boundary, Horizon, LinearCondition, OcpProblem};

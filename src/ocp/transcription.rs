@@ -278,6 +278,43 @@ impl<'a, P: OcpProblem + ?Sized> Transcription<'a, P> {
         lam
     }
 
+    /// The rows of the boundary conditions (after the dynamics and path rows).
+    pub fn boundary_rows(&self) -> std::ops::Range<usize> {
+        self.path_row(self.n_points())..self.n_con()
+    }
+
+    /// Dynamics multipliers `ν` (the rows of the collocation conditions; all other rows 0)
+    /// whose point multipliers ([`Self::point_multipliers`]) approximate `ω_p π_p` for the
+    /// costates `pi` (`P × n`, e.g. of an indirect solution): the inverse of
+    /// `point_multipliers` interval by interval. Interval `k` contributes
+    /// `−h_k Σ_i a_ij ν_{k,i}` to its four points `j`, and its share of `ω_p π_p` is
+    /// `h_k b_j π_p`; the three `ν_{k,i}` are fitted to those four conditions by least squares
+    /// (they are consistent only up to the discretization error, which Newton's method on the
+    /// KKT conditions then removes).
+    pub fn dynamics_multipliers_from_costates(&self, pi: &[f64]) -> Vec<f64> {
+        let n = self.n;
+        // A = (a_ij), i = 1..3 (rows), j = 0..3 (columns); ν = −(A Aᵀ)⁻¹ A (b ∘ π).
+        let a = nalgebra::Matrix3x4::from_fn(|i, j| self.tab.a[i + 1][j]);
+        let gram = a * a.transpose();
+        // The Lobatto IIIA rows are independent: the Gram matrix is invertible.
+        let fit = gram
+            .try_inverse()
+            .map(|g| g * a)
+            .unwrap_or_else(nalgebra::Matrix3x4::zeros);
+        let mut y = vec![0.0; self.n_con()];
+        for k in 0..self.n_intervals() {
+            for i in 0..3 {
+                let row = (3 * k + i) * n;
+                for r in 0..n {
+                    y[row + r] = -(0..4)
+                        .map(|j| fit[(i, j)] * self.tab.b[j] * pi[(3 * k + j) * n + r])
+                        .sum::<f64>();
+                }
+            }
+        }
+        y
+    }
+
     /// The objective `J(v)`.
     pub fn objective(&self, v: &[f64]) -> f64 {
         let nz = self.nz();

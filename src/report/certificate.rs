@@ -28,8 +28,9 @@ pub struct CertificateReport {
     pub unknowns: usize,
     /// Equality constraints of the discretized problem.
     pub constraints: usize,
-    /// KKT stationarity residual of the indirect solution (relative to `‖∇J‖∞`), with its
-    /// least-squares multipliers.
+    /// KKT stationarity residual of the indirect solution (relative to `‖∇J‖∞`), with the
+    /// multipliers its costates give (least-squares multipliers where Newton's method failed
+    /// from those).
     #[serde(with = "finite_or_null")]
     pub candidate_stationarity: f64,
     /// Constraint residual of the indirect solution in the direct discretization.
