@@ -53,6 +53,24 @@ fn certified(problem: &SuslovProblem, tol: f64) -> SuslovCertificate {
     cert
 }
 
+/// The primal point of the direct transcription (free `b`) that an indirect solution gives:
+/// `z = [Ω, ξ, ξ̇]` of `y = [Ω, ξ, ξ̇, κ]` at every collocation point, then `b − a`.
+fn indirect_primal(sol: &suslov::SuslovSolution) -> Vec<f64> {
+    let mut v0: Vec<f64> = Vec::new();
+    for y in sol
+        .generic
+        .bvp
+        .collocation_values()
+        .chunks_exact(g::N_STATE)
+    {
+        for block in [g::OMEGA, g::XI, g::XIDOT] {
+            v0.extend_from_slice(&y[block]);
+        }
+    }
+    v0.push(sol.generic.t_span);
+    v0
+}
+
 fn assert_certified(cert: &SuslovCertificate) {
     let so = &cert.certificate.second_order;
     assert_eq!(cert.verdict(), Verdict::Certified);
@@ -179,19 +197,7 @@ fn coarse_mesh_saddle_matches_a_dense_null_space_computation() {
     let sol = solve(&problem, &opts, &mut |_| {}).expect("solves");
     let ocp = LieOcp::new(&sol.generic);
     let tr = transcription(&ocp, &sol.generic).expect("transcription");
-    let mut v0: Vec<f64> = Vec::new();
-    for y in sol
-        .generic
-        .bvp
-        .collocation_values()
-        .chunks_exact(g::N_STATE)
-    {
-        // z = [Omega, xi, xi'] of y = [Omega, xi, xi', kappa].
-        for block in [g::OMEGA, g::XI, g::XIDOT] {
-            v0.extend_from_slice(&y[block]);
-        }
-    }
-    v0.push(sol.generic.t_span);
+    let v0 = indirect_primal(&sol);
     // The KKT pattern comes from the positions alone: those of the evaluated derivatives.
     let pos = |e: Vec<(usize, usize, f64)>| -> Vec<(usize, usize)> {
         e.into_iter().map(|(r, c, _)| (r, c)).collect()
@@ -245,18 +251,7 @@ fn costate_start_reaches_the_least_squares_start_point() {
     let seeded = certify(&sol.generic, &newton, &second).expect("certificate");
     let ocp_problem = LieOcp::new(&sol.generic);
     let tr = transcription(&ocp_problem, &sol.generic).expect("transcription");
-    let mut v0: Vec<f64> = Vec::new();
-    for y in sol
-        .generic
-        .bvp
-        .collocation_values()
-        .chunks_exact(g::N_STATE)
-    {
-        for block in [g::OMEGA, g::XI, g::XIDOT] {
-            v0.extend_from_slice(&y[block]);
-        }
-    }
-    v0.push(sol.generic.t_span);
+    let v0 = indirect_primal(&sol);
     let plain = ocp::certify(&tr, v0, &newton, &second).expect("certificate");
     let (a, b) = (&seeded.certificate, &plain);
     let gap = |x: &[f64], y: &[f64]| {
