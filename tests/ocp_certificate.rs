@@ -16,7 +16,8 @@ use suslov::ocp::certify::{second_order, second_order_near};
 use suslov::ocp::kkt::{self, KktMatrix, KktPoint};
 use suslov::ocp::{
     certify, certify_with_costates, sqp, Boundary, Certificate, Horizon, LinearCondition,
-    NewtonOptions, OcpProblem, SecondOrderOptions, SqpError, SqpOptions, Transcription, Verdict,
+    MultiplierStart, NewtonOptions, OcpProblem, SecondOrderOptions, SqpError, SqpOptions,
+    Transcription, Verdict,
 };
 
 /// `ẋ = u`, `L = s (u² − k x²)/2 + δ`: the oscillator (`s = k = 1`, `δ = 0`), its
@@ -696,7 +697,10 @@ fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
         assert!(gap(&other.point.y, &cert.point.y) < 1e-8);
     }
     assert!(from_own.candidate.relative_stationarity() < 1e-5);
+    assert_eq!(from_own.multipliers_from, MultiplierStart::Costates);
     assert_eq!(from_wild.candidate, cert.candidate);
+    assert_eq!(from_wild.multipliers_from, MultiplierStart::LeastSquares);
+    assert_eq!(cert.multipliers_from, MultiplierStart::LeastSquares);
 }
 
 /// One evaluation at the start shared by the multipliers and Newton (what `certify` does)

@@ -160,9 +160,9 @@ fn certify_job_writes_json_and_says_the_verdict() {
     let reports = suslov::app::run_certify(&jobs, Some(&json), &mut |_| {}).expect("runs");
     assert_eq!(reports.len(), 1);
     assert_eq!(reports[0].verdict, "certified");
-    assert!(reports[0]
-        .text()
-        .contains("local minimum certified for the discretized problem"));
+    let text = reports[0].text();
+    assert!(text.contains("local minimum certified for the discretized problem"));
+    assert!(text.contains("indirect solution as a KKT point (its costates as multipliers)"));
     let parsed: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&json).expect("written")).expect("valid JSON");
     let case = &parsed["cases"][0];
@@ -172,6 +172,7 @@ fn certify_job_writes_json_and_says_the_verdict() {
     assert_eq!(case["inertia"][0], case["unknowns"]);
     assert_eq!(case["inertia"][1], case["constraints"]);
     assert!(case["margin_low"].as_f64().expect("number") > 0.0);
+    assert_eq!(case["candidate_multipliers"], "costates");
     std::fs::remove_dir_all(&dir).ok();
     // A bad tolerance is an error naming the flag.
     let err = suslov::app::case_jobs(None, Some(-1.0))
@@ -281,6 +282,8 @@ fn costate_start_reaches_the_least_squares_start_point() {
     );
     assert!((p.0 - q.0).abs() < 1e-6 * q.0 && (p.1 - q.1).abs() < 1e-6 * q.1);
     assert_eq!(a.newton_iterations, b.newton_iterations);
+    assert_eq!(a.multipliers_from, ocp::MultiplierStart::Costates);
+    assert_eq!(b.multipliers_from, ocp::MultiplierStart::LeastSquares);
     assert!(b.candidate.relative_stationarity() < 1e-7);
     assert!(b.candidate.relative_stationarity() < a.candidate.relative_stationarity());
 }

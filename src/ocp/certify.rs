@@ -838,6 +838,17 @@ fn lanczos(
     None
 }
 
+/// Where Newton's method on the KKT conditions took its start multipliers from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MultiplierStart {
+    /// From the candidate's costates ([`kkt::multipliers_from_costates`]).
+    Costates,
+    /// The least-squares multipliers at the candidate (no costates given, none they could
+    /// give, or Newton failed from theirs).
+    LeastSquares,
+}
+
 /// Everything [`certify`] establishes about a candidate solution.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Certificate {
@@ -847,6 +858,8 @@ pub struct Certificate {
     /// give at the candidate), or, with [`certify_with_costates`], those of its costates,
     /// whose own discretization error the residual then includes.
     pub candidate: KktResidual,
+    /// Where Newton's start multipliers (those of `candidate`) came from.
+    pub multipliers_from: MultiplierStart,
     /// Newton iterations from the candidate to the exact KKT point.
     pub newton_iterations: usize,
     /// KKT residual at the point that is certified.
@@ -930,16 +943,16 @@ pub fn certify_with_costates<P: OcpProblem + ?Sized>(
         let eval = first.take()?;
         kkt::newton_from(tr, &matrix, start.clone(), eval, newton_opts)
             .ok()
-            .map(|run| (start, run))
+            .map(|run| (start, MultiplierStart::Costates, run))
     });
-    let (start, (point, newton, near)) = match attempt {
+    let (start, multipliers_from, (point, newton, near)) = match attempt {
         Some(done) => done,
         None => {
             let first = first.unwrap_or_else(|| PrimalEvaluation::at(tr, &v0));
             let y0 = kkt::least_squares_multipliers_at(&matrix, &first)?;
             let start = KktPoint { v: v0, y: y0 };
             let run = kkt::newton_from(tr, &matrix, start.clone(), first, newton_opts)?;
-            (start, run)
+            (start, MultiplierStart::LeastSquares, run)
         }
     };
     // Newton's first residual is the candidate's (`kkt::residual` at `start`).
@@ -967,6 +980,7 @@ pub fn certify_with_costates<P: OcpProblem + ?Sized>(
     };
     Ok(Certificate {
         candidate,
+        multipliers_from,
         newton_iterations: newton.residuals.len() - 1,
         kkt: *newton.residuals.last().unwrap_or(&candidate),
         displacement,

@@ -20,7 +20,7 @@ pub mod sqp;
 pub mod transcription;
 
 pub use certify::{
-    certify, certify_with_costates, Certificate, CertifyError, SecondOrderOptions,
+    certify, certify_with_costates, Certificate, CertifyError, MultiplierStart, SecondOrderOptions,
     SecondOrderReport, Verdict,
 };
 pub use kkt::{KktError, KktPoint, KktResidual, NewtonOptions};

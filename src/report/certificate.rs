@@ -4,6 +4,7 @@ use serde::Serialize;
 
 use super::summary::{finite_or_null, opt_finite_or_null};
 use crate::lie::certify::SuslovCertificate;
+use crate::ocp::MultiplierStart;
 
 /// One case of `suslov certify` (serialized into `certificate.json`).
 #[derive(Debug, Clone, Default, Serialize)]
@@ -36,6 +37,9 @@ pub struct CertificateReport {
     /// Constraint residual of the indirect solution in the direct discretization.
     #[serde(with = "finite_or_null")]
     pub candidate_feasibility: f64,
+    /// Where the multipliers of `candidate_stationarity` (Newton's start) came from:
+    /// `"costates"` (the indirect solution's, from κ) or `"least_squares"`.
+    pub candidate_multipliers: Option<MultiplierStart>,
     /// Newton iterations to the exact KKT point of the discretized problem.
     pub newton_iterations: usize,
     /// `‖v* − v₀‖∞`, certified point against the indirect solution.
@@ -119,6 +123,7 @@ impl CertificateReport {
             constraints: so.n_con,
             candidate_stationarity: c.certificate.candidate.relative_stationarity(),
             candidate_feasibility: c.certificate.candidate.feasibility,
+            candidate_multipliers: Some(c.certificate.multipliers_from),
             newton_iterations: c.certificate.newton_iterations,
             displacement: c.certificate.displacement,
             kkt_stationarity: c.certificate.kkt.relative_stationarity(),
@@ -185,7 +190,8 @@ impl CertificateReport {
         format!(
             "case {name}: {msg}\n\
              \x20 b = {b}{free}, cost = {cost}, {iv} intervals: {nv} unknowns, {nc} constraints\n\
-             \x20 indirect solution as a KKT point: stationarity {cs:.1e}, feasibility {cf:.1e}\n\
+             \x20 indirect solution as a KKT point{with}: stationarity {cs:.1e}, feasibility \
+             {cf:.1e}\n\
              \x20 Newton to the exact KKT point: {it} {iterations}, displacement {disp:.1e}, \
              residuals {ks:.1e} / {kf:.1e}\n\
              \x20 multipliers vs costates from kappa: {cm:.1e} (relative)\n\
@@ -208,6 +214,11 @@ impl CertificateReport {
             iv = self.intervals,
             nv = self.unknowns,
             nc = self.constraints,
+            with = match self.candidate_multipliers {
+                Some(MultiplierStart::Costates) => " (its costates as multipliers)",
+                Some(MultiplierStart::LeastSquares) => " (least-squares multipliers)",
+                None => "",
+            },
             cs = self.candidate_stationarity,
             cf = self.candidate_feasibility,
             it = self.newton_iterations,
