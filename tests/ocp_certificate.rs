@@ -785,6 +785,50 @@ fn multipliers_from_costates_approach_the_discrete_ones() {
     assert!(errors[0] < 1e-2, "{errors:?}");
     assert!(orders.iter().all(|&q| q > 2.5), "{orders:?}");
 
+    // Without boundary conditions there are no boundary multipliers to fit: the dynamics
+    // rows alone (free ends, where the fit of the costate π = −u of this extremal is still
+    // close to the least-squares multipliers).
+    let tr = Transcription::new(
+        &prob,
+        Boundary {
+            start: vec![],
+            end: vec![],
+            start_linear: vec![],
+            end_linear: vec![],
+        },
+        Horizon::Fixed {
+            t0: 0.0,
+            length: t_len,
+        },
+        uniform_mesh(20),
+    )
+    .expect("valid");
+    let v0 = oscillator_extremal(&tr, t_len);
+    let pi: Vec<f64> = (0..tr.n_points())
+        .map(|p| -tr.point_time(p, t_len).cos() / st)
+        .collect();
+    let first = kkt::PrimalEvaluation::at(&tr, &v0);
+    let y = kkt::multipliers_from_costates(&tr, &first, &pi).expect("multipliers");
+    assert_eq!(y.len(), tr.n_con());
+    assert_eq!(y, tr.dynamics_multipliers_from_costates(&pi));
+    // A boundary row that involves no unknown (a linear condition without coefficients):
+    // nothing to fit either, its multiplier 0.
+    let tr = tr
+        .with_boundary(Boundary {
+            start: vec![],
+            end: vec![],
+            start_linear: vec![LinearCondition {
+                coefficients: vec![],
+                value: 0.0,
+            }],
+            end_linear: vec![],
+        })
+        .expect("valid");
+    let first = kkt::PrimalEvaluation::at(&tr, &v0);
+    let y = kkt::multipliers_from_costates(&tr, &first, &pi).expect("multipliers");
+    assert_eq!(y.len(), tr.n_con());
+    assert_eq!(y[tr.boundary_rows()], [0.0]);
+
     // No multipliers where the costates do not give them all.
     let pend = Pendulum {
         delta: 0.2,

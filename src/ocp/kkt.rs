@@ -355,6 +355,12 @@ pub fn multipliers_from_costates<P: OcpProblem + ?Sized>(
     let mut cols: Vec<usize> = entries.iter().map(|e| e.1).collect();
     cols.sort_unstable();
     cols.dedup();
+    // No boundary rows, or none that involves an unknown (a linear condition without
+    // coefficients): nothing to fit, and their minimum-norm multipliers are 0 (a dense
+    // problem without rows or columns is not handed to the SVD, which rejects it).
+    if cols.is_empty() {
+        return y.iter().all(|v| v.is_finite()).then_some(y);
+    }
     // min ‖r_cols + Bᵀ μ‖ over the boundary multipliers μ, B the boundary rows' entries.
     let mut bt = nalgebra::DMatrix::<f64>::zeros(cols.len(), rows.len());
     for &&(row, col, value) in &entries {
