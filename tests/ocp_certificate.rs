@@ -423,7 +423,7 @@ fn the_test_seeded_by_newton_agrees_with_the_plain_test() {
                 .expect("Newton");
         let near = near.expect("the extremal is not the discrete KKT point: a Newton step");
         let plain = second_order(&tr, &matrix, &point, &opts).expect("plain");
-        let seeded = second_order_near(&tr, &matrix, &point, &opts, Some(&near)).expect("seeded");
+        let seeded = second_order_near(&tr, &matrix, &point, &opts, Some(near)).expect("seeded");
         let (_, mu) = dense_reduced(&tr, &point);
         eprintln!(
             "T = {t_len}: plain {} {:?} ({} factorizations), seeded {} {:?} ({}), dense mu_min {mu:.6e}",
