@@ -324,6 +324,21 @@ fn oscillator_extremal(tr: &Transcription<'_, Quadratic>, t_len: f64) -> Vec<f64
     })
 }
 
+/// The costate of that extremal, `π = −u = −cos t / sin T` (`∂H/∂u = u + π = 0`), at the
+/// collocation points.
+fn oscillator_costate(tr: &Transcription<'_, Quadratic>, t_len: f64) -> Vec<f64> {
+    (0..tr.n_points())
+        .map(|p| -tr.point_time(p, t_len).cos() / t_len.sin())
+        .collect()
+}
+
+/// `max_i |a_i − b_i|`.
+fn gap(a: &[f64], b: &[f64]) -> f64 {
+    a.iter()
+        .zip(b)
+        .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
+}
+
 fn certify_default(tr: &Transcription<'_, Quadratic>, v0: Vec<f64>) -> Certificate {
     certify(
         tr,
@@ -679,11 +694,6 @@ fn sqp_minimum_of_a_nonlinear_problem_is_certified() {
         .expect("certificate");
     assert!(unlimited.newton_iterations > 1);
     assert!(unlimited.candidate.relative_stationarity() > 1e6);
-    let gap = |a: &[f64], b: &[f64]| {
-        a.iter()
-            .zip(b)
-            .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
-    };
     for other in [&from_own, &from_wild] {
         eprintln!(
             "from costates: Newton {} its, gap v {:.1e}, y {:.1e}, candidate {:?}",
@@ -739,24 +749,17 @@ fn a_shared_first_evaluation_changes_no_bit() {
 fn multipliers_from_costates_approach_the_discrete_ones() {
     let prob = Quadratic::oscillator(false);
     let t_len: f64 = 2.0;
-    let st = t_len.sin();
     let mut errors = Vec::new();
     for n in [10, 20, 40, 80] {
         let tr = oscillator_transcription(&prob, t_len, n);
         let v0 = oscillator_extremal(&tr, t_len);
-        let pi: Vec<f64> = (0..tr.n_points())
-            .map(|p| -tr.point_time(p, t_len).cos() / st)
-            .collect();
+        let pi = oscillator_costate(&tr, t_len);
         let first = kkt::PrimalEvaluation::at(&tr, &v0);
         let from_pi = kkt::multipliers_from_costates(&tr, &first, &pi).expect("multipliers");
         let matrix = KktMatrix::new(&tr).expect("pattern");
         let lsq = kkt::least_squares_multipliers_at(&matrix, &first).expect("multipliers");
         let scale = lsq.iter().fold(0.0_f64, |m, y| m.max(y.abs()));
-        let err = from_pi
-            .iter()
-            .zip(&lsq)
-            .fold(0.0_f64, |m, (a, b)| m.max((a - b).abs()))
-            / scale;
+        let err = gap(&from_pi, &lsq) / scale;
         errors.push(err);
         // A constant costate: λ_p = ω_p π exactly (to rounding).
         let ones = vec![1.0; tr.n_points()];
@@ -769,11 +772,6 @@ fn multipliers_from_costates_approach_the_discrete_ones() {
         let plain = certify(&tr, v0.clone(), &opts.0, &opts.1).expect("certificate");
         let seeded =
             certify_with_costates(&tr, v0, Some(&pi), &opts.0, &opts.1).expect("certificate");
-        let gap = |a: &[f64], b: &[f64]| {
-            a.iter()
-                .zip(b)
-                .fold(0.0_f64, |m, (x, y)| m.max((x - y).abs()))
-        };
         assert!(gap(&plain.point.v, &seeded.point.v) < 1e-12);
         assert!(gap(&plain.point.y, &seeded.point.y) < 1e-12 * scale);
         assert_eq!(plain.second_order.verdict, seeded.second_order.verdict);
@@ -804,9 +802,7 @@ fn multipliers_from_costates_approach_the_discrete_ones() {
     )
     .expect("valid");
     let v0 = oscillator_extremal(&tr, t_len);
-    let pi: Vec<f64> = (0..tr.n_points())
-        .map(|p| -tr.point_time(p, t_len).cos() / st)
-        .collect();
+    let pi = oscillator_costate(&tr, t_len);
     let first = kkt::PrimalEvaluation::at(&tr, &v0);
     let y = kkt::multipliers_from_costates(&tr, &first, &pi).expect("multipliers");
     assert_eq!(y.len(), tr.n_con());

@@ -333,8 +333,8 @@ pub fn least_squares_multipliers_at(
 /// is not finite: the caller then uses [`least_squares_multipliers_at`].
 ///
 /// They are not the least-squares multipliers: they carry the costates' discretization error
-/// (relative `1e-7` on the paper's meshes), which one Newton step on the KKT conditions
-/// removes together with the primal point's.
+/// (the certificate's `costate_mismatch` measures its size), which one Newton step on the
+/// KKT conditions removes together with the primal point's.
 pub fn multipliers_from_costates<P: OcpProblem + ?Sized>(
     tr: &Transcription<'_, P>,
     eval: &PrimalEvaluation,
