@@ -158,7 +158,8 @@ pub enum InertiaError {
     NonFiniteValue {
         /// Position of the value in `values`.
         index: usize,
-        /// Row index of the entry.
+        /// Row index of the entry (of a factorization's values: in the upper triangle,
+        /// `row ≤ col`, whichever triangle the pattern gave it in).
         row: usize,
         /// Column index of the entry.
         col: usize,
@@ -236,12 +237,22 @@ struct PatternInner {
     entry_pos: Vec<usize>,
     /// Number of stored entries of the upper triangle of the augmented pattern.
     nnz_augmented: usize,
-    /// For each user entry, `(row, col)` as given (for error messages).
-    entries: Vec<(usize, usize)>,
     /// Number of groups of rows (a structurally zero-diagonal row and its neighbour(s)) kept
     /// consecutive, in one supernode.
     n_groups: usize,
     symbolic: SymbolicCholesky<usize>,
+}
+
+impl PatternInner {
+    /// The `(row, col)` of user entry `index` in the upper triangle (`row ≤ col`), for error
+    /// messages (the pattern does not keep the entries as given).
+    fn entry_at(&self, index: usize) -> (usize, usize) {
+        let Some(&pos) = self.entry_pos.get(index) else {
+            return (0, 0);
+        };
+        let col = self.col_ptr.partition_point(|&start| start <= pos) - 1;
+        (self.row_idx[pos], col)
+    }
 }
 
 /// A symmetric sparsity pattern, analysed once and reusable for any number of numeric
@@ -623,7 +634,6 @@ impl SymmetricPattern {
                 row_idx,
                 entry_pos,
                 nnz_augmented,
-                entries: entries.to_vec(),
                 n_groups: n_grouped,
                 symbolic,
             }),
@@ -669,30 +679,60 @@ struct NumericParts {
 /// The user pattern and the diagonal (upper triangle, `(col, row)` pairs, sorted): the
 /// numeric pattern, and where each of `entries` is in it.
 fn numeric_pattern(n: usize, entries: &[(usize, usize)]) -> NumericPattern {
-    let user: Vec<(usize, usize)> = entries
-        .iter()
-        .map(|&(r, c)| (r.max(c), r.min(c)))
-        .chain((0..n).map(|i| (i, i)))
-        .collect();
-    let compact = Csr::from_pairs(n, &user);
-    drop(user);
-    let (col_ptr, row_idx) = (compact.row_ptr, compact.col_idx);
+    // A counting sort of the entries and the diagonal by column (the larger index), each
+    // entry's slot remembered; then each column's rows sorted and deduplicated, and the slots
+    // mapped to the positions they end at: no list of pairs and no searches (fresh memory costs
+    // page faults, and this thread's heap is fresh).
+    let mut col_ptr = vec![0usize; n + 1];
+    for &(r, c) in entries {
+        col_ptr[r.max(c) + 1] += 1;
+    }
+    for i in 0..n {
+        col_ptr[i + 1] += col_ptr[i] + 1;
+    }
+    let total = col_ptr[n];
+    let mut rows = vec![0usize; total];
+    let mut next = col_ptr.clone();
     let mut entry_pos = Vec::with_capacity(entries.len());
-    for &(row, col) in entries {
-        let (r, c) = (row.min(col), row.max(col));
-        // Present: `compact` holds every entry.
-        let k = row_idx[col_ptr[c]..col_ptr[c + 1]]
-            .binary_search(&r)
-            .map_err(|_| {
-                InertiaError::Symbolic(format!(
-                    "internal error: entry ({row}, {col}) missing from the pattern"
-                ))
-            })?;
-        entry_pos.push(col_ptr[c] + k);
+    for &(r, c) in entries {
+        let col = r.max(c);
+        rows[next[col]] = r.min(c);
+        entry_pos.push(next[col]);
+        next[col] += 1;
+    }
+    for (i, slot) in next.iter().take(n).enumerate() {
+        rows[*slot] = i;
+    }
+    drop(next);
+    // `slot_to_pos[s]`: where slot `s` ends after sorting and deduplication.
+    let mut slot_to_pos = vec![0usize; total];
+    let mut column: Vec<(usize, usize)> = Vec::new();
+    let mut len = 0;
+    let mut begin = 0;
+    for c in 0..n {
+        let end = col_ptr[c + 1];
+        column.clear();
+        column.extend((begin..end).map(|s| (rows[s], s)));
+        column.sort_unstable();
+        let mut prev = NONE;
+        for &(r, s) in &column {
+            if r != prev {
+                rows[len] = r;
+                len += 1;
+                prev = r;
+            }
+            slot_to_pos[s] = len - 1;
+        }
+        begin = end;
+        col_ptr[c + 1] = len;
+    }
+    rows.truncate(len);
+    for p in &mut entry_pos {
+        *p = slot_to_pos[*p];
     }
     Ok(NumericParts {
         col_ptr,
-        row_idx,
+        row_idx: rows,
         entry_pos,
     })
 }
@@ -1063,7 +1103,7 @@ impl LbltFactor {
         let mut vals = vec![0.0; p.row_idx.len()];
         for (index, (&v, &pos)) in values.iter().zip(&p.entry_pos).enumerate() {
             if !v.is_finite() {
-                let (row, col) = p.entries[index];
+                let (row, col) = p.entry_at(index);
                 return Err(InertiaError::NonFiniteValue {
                     index,
                     row,
@@ -1076,7 +1116,7 @@ impl LbltFactor {
         // Summing duplicates may overflow.
         if let Some(pos) = vals.iter().position(|v| !v.is_finite()) {
             let index = p.entry_pos.iter().position(|&q| q == pos).unwrap_or(0);
-            let (row, col) = p.entries.get(index).copied().unwrap_or((0, 0));
+            let (row, col) = p.entry_at(index);
             return Err(InertiaError::NonFiniteValue {
                 index,
                 row,
@@ -2567,6 +2607,33 @@ mod tests {
         assert!(matches!(
             LbltFactor::factorize(&pattern, &[1.0, f64::NAN, 1.0, 1.0]),
             Err(InertiaError::NonFiniteValue { index: 1, .. })
+        ));
+        // The entry is named in the upper triangle, whichever triangle it was given in; the
+        // diagonal ones and the last one too (the pattern keeps positions, not the list).
+        for (index, row, col) in [(0, 0, 0), (1, 0, 1), (2, 2, 2), (3, 1, 1)] {
+            let mut values = [1.0; 4];
+            values[index] = f64::INFINITY;
+            let err = LbltFactor::factorize(&pattern, &values).unwrap_err();
+            assert_eq!(
+                err,
+                InertiaError::NonFiniteValue {
+                    index,
+                    row,
+                    col,
+                    value: f64::INFINITY
+                }
+            );
+        }
+        // Finite values whose duplicates sum to infinity: the first entry at that position.
+        let doubled = SymmetricPattern::new(2, &[(0, 0), (1, 0), (0, 1), (1, 1)]).unwrap();
+        assert!(matches!(
+            LbltFactor::factorize(&doubled, &[1.0, f64::MAX, f64::MAX, 1.0]),
+            Err(InertiaError::NonFiniteValue {
+                index: 1,
+                row: 0,
+                col: 1,
+                ..
+            })
         ));
         // [[1, 2], [2, 1]] ⊕ [-3]: eigenvalues 3, -1, -3; mirrored duplicates are summed.
         let pattern = SymmetricPattern::new(3, &[(0, 0), (1, 0), (0, 1), (2, 2), (1, 1)]).unwrap();

@@ -154,17 +154,21 @@ impl KktMatrix {
         constraint_diagonal: bool,
     ) -> Result<Self, KktError> {
         let (nv, nc) = (tr.n_var(), tr.n_con());
-        let mut entries: Vec<(usize, usize)> = (0..nv).map(|i| (i, i)).collect();
-        entries.extend(
-            tr.lagrangian_hessian_positions()
-                .iter()
-                .map(|&(r, c, _)| (r, c)),
-        );
-        entries.extend(tr.jacobian_positions().iter().map(|&(r, c, _)| (nv + r, c)));
+        let hessian = tr.lagrangian_hessian_positions();
+        let jacobian = tr.jacobian_positions();
+        // Exactly sized: the list is a quarter of a million entries on a paper mesh.
+        let extra = if constraint_diagonal { nc } else { 0 };
+        let mut entries = Vec::with_capacity(nv + hessian.len() + jacobian.len() + extra);
+        entries.extend((0..nv).map(|i| (i, i)));
+        entries.extend(hessian.iter().map(|&(r, c, _)| (r, c)));
+        drop(hessian);
+        entries.extend(jacobian.iter().map(|&(r, c, _)| (nv + r, c)));
+        drop(jacobian);
         if constraint_diagonal {
             entries.extend((nv..nv + nc).map(|i| (i, i)));
         }
-        let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &tr.kkt_pivot_groups())?;
+        let groups = tr.kkt_pivot_groups();
+        let pattern = SymmetricPattern::with_groups(nv + nc, &entries, &groups)?;
         Ok(Self {
             pattern,
             entries,
