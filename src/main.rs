@@ -429,6 +429,38 @@ mod malloc_policy {
             mallopt(M_TOP_PAD, 64 << 20);
         }
     }
+
+    /// Size of each block that [`prefault_heap`] touches (below the 32 MiB above which a
+    /// block would be `mmap`ed on its own, and given back to the kernel when freed).
+    const PREFAULT_BLOCK: usize = 24 << 20;
+
+    /// Fault in `blocks` blocks of [`PREFAULT_BLOCK`] bytes of the heap on the idle core: they
+    /// are allocated here (untouched, so at no cost to this thread), then a helper thread
+    /// writes one byte per page and frees them. glibc returns a freed block to the heap it
+    /// came from, whichever thread frees it, and [`keep_freed_memory`] keeps it mapped, so
+    /// the memory that this thread takes later is already faulted in. `suslov certify` needs
+    /// about 40 MB that its solve does not, each page a fault of a few microseconds
+    /// (bench/README.md, session 28).
+    pub(super) fn prefault_heap(blocks: usize) {
+        let heap: Vec<Vec<u8>> = (0..blocks)
+            .map(|_| Vec::with_capacity(PREFAULT_BLOCK))
+            .collect();
+        // Detached: if the process ends first, nothing is lost.
+        let spawned = std::thread::Builder::new()
+            .name("prefault".into())
+            .spawn(move || {
+                let mut heap = heap;
+                for block in &mut heap {
+                    for byte in block.spare_capacity_mut().iter_mut().step_by(4096) {
+                        byte.write(0);
+                    }
+                }
+                // The writes must happen although the blocks are freed right after.
+                drop(std::hint::black_box(heap));
+            });
+        // Without a thread the pages are faulted in where they are used, as without this.
+        drop(spawned);
+    }
 }
 
 fn main() -> ExitCode {
@@ -510,6 +542,8 @@ fn main() -> ExitCode {
             json_file,
             tolerance,
         } => {
+            #[cfg(all(target_os = "linux", target_env = "gnu"))]
+            malloc_policy::prefault_heap(2);
             let result = app::run_certify_any(
                 config.as_deref(),
                 tolerance,
