@@ -430,6 +430,39 @@ mod malloc_policy {
         }
     }
 
+    /// `struct rlimit` (`sys/resource.h`; `rlim_t` is 64 bits wide on 64-bit Linux).
+    #[repr(C)]
+    struct Rlimit {
+        current: u64,
+        maximum: u64,
+    }
+
+    const RLIMIT_DATA: i32 = 2;
+    const RLIMIT_AS: i32 = 9;
+    const RLIM_INFINITY: u64 = u64::MAX;
+
+    extern "C" {
+        fn getrlimit(resource: i32, rlim: *mut Rlimit) -> i32;
+    }
+
+    /// Whether neither the address space nor the data segment (the heap) of the process is
+    /// limited (`ulimit -v`, `ulimit -d`); `false` where that cannot be read.
+    fn heap_unlimited() -> bool {
+        if !cfg!(target_pointer_width = "64") {
+            return false;
+        }
+        [RLIMIT_AS, RLIMIT_DATA].into_iter().all(|resource| {
+            let mut limit = Rlimit {
+                current: 0,
+                maximum: 0,
+            };
+            // SAFETY: glibc's `getrlimit` writes one `struct rlimit`, which `Rlimit` lays out
+            // on 64-bit Linux (checked above); on failure it writes nothing.
+            let ok = unsafe { getrlimit(resource, &mut limit) } == 0;
+            ok && limit.current == RLIM_INFINITY
+        })
+    }
+
     /// Size of each block that [`prefault_heap`] touches (below the 32 MiB above which a
     /// block would be `mmap`ed on its own, and given back to the kernel when freed).
     const PREFAULT_BLOCK: usize = 24 << 20;
@@ -442,9 +475,23 @@ mod malloc_policy {
     /// about 40 MB that its solve does not, each page a fault of a few microseconds
     /// (bench/README.md, session 28).
     pub(super) fn prefault_heap(blocks: usize) {
+        // Under a limit on the address space or the heap the blocks could take what the
+        // certificate needs later (measured: `ulimit -v 70000` aborted `suslov certify
+        // examples/segment.toml`, which needs less than 50 MB without them).
+        if !heap_unlimited() {
+            return;
+        }
+        // Reserved without aborting: where the address space is limited, fewer blocks (or
+        // none) are faulted in ahead, and the certificate meets its own limits as before.
         let heap: Vec<Vec<u8>> = (0..blocks)
-            .map(|_| Vec::with_capacity(PREFAULT_BLOCK))
+            .map_while(|_| {
+                let mut block = Vec::new();
+                block.try_reserve_exact(PREFAULT_BLOCK).ok().map(|()| block)
+            })
             .collect();
+        if heap.is_empty() {
+            return;
+        }
         // Detached: if the process ends first, nothing is lost.
         let spawned = std::thread::Builder::new()
             .name("prefault".into())
