@@ -477,12 +477,12 @@ mod malloc_policy {
     pub(super) fn prefault_heap(blocks: usize) {
         // Under a limit on the address space or the heap the blocks could take what the
         // certificate needs later (measured: `ulimit -v 70000` aborted `suslov certify
-        // examples/segment.toml`, which needs less than 50 MB without them).
+        // examples/segment.toml`, which runs in 35 MB without them).
         if !heap_unlimited() {
             return;
         }
-        // Reserved without aborting: where the address space is limited, fewer blocks (or
-        // none) are faulted in ahead, and the certificate meets its own limits as before.
+        // Reserved without aborting: blocks the allocator refuses are simply not faulted in
+        // ahead.
         let heap: Vec<Vec<u8>> = (0..blocks)
             .map_while(|_| {
                 let mut block = Vec::new();
