@@ -73,6 +73,8 @@ def prepare(work, name, rev, patch):
         run(["git", "-C", REPO, "worktree", "add", "--detach", "-q", tree, rev])
         if patch:
             run(["git", "-C", tree, "apply", os.path.join(REPO, "bench/issue13", patch)])
+    elif not patch:
+        run(["git", "-C", tree, "checkout", "-q", "--detach", rev])  # a later HEAD
     shutil.copy(os.path.join(REPO, "bench/issue13/step_ab.rs"),
                 os.path.join(tree, "examples/step_ab.rs"))
     say(f"building {name} ({rev[:12]}) in {tree} ...")
@@ -126,6 +128,26 @@ def steps_table(res, rounds, loads):
     return lines, met
 
 
+def scaling_phase(tree, target):
+    """Head's `cargo bench --bench bvp -- step`: the step per interval against N and n."""
+    l0 = load()
+    env = dict(os.environ, CARGO_TARGET_DIR=target)
+    outp = run(["cargo", "bench", "-q", "--bench", "bvp", "--", "step"], cwd=tree, env=env)
+    l1 = load()
+    rows = [line for line in outp.splitlines() if line.startswith("| ")]
+    osc = [(int(c[2]), float(c[4])) for c in (line.split("|") for line in rows)
+           if "oscillators" in c[1]]
+    lines = [f"Head's `cargo bench --bench bvp -- step` (wall medians; load {l0:.2f} -> "
+             f"{l1:.2f}):", ""] + rows + [""]
+    if len(osc) < 2:
+        return lines + ["No oscillator rows: flatness not measured."], None
+    per = [u for _, u in osc]
+    spread = max(per) / min(per)
+    lines.append(f"µs per interval, n = 12 oscillators, N = {osc[0][0]} … {osc[-1][0]}: "
+                 f"{', '.join(f'{u:.2f}' for u in per)} (max / min {spread:.2f}).")
+    return lines, spread
+
+
 def certify_phase(suslov, runs):
     """{mode: {case: [(certify_s, solve_s, verdict)]}}, loads."""
     modes = [("both cases, one process", [])] + [
@@ -166,8 +188,16 @@ GROUPS = [
      re.compile(r"bvp::abd|bvp::dense|condense|expand_correction|reduce_residual|"
                 r"GlobalSystem|faer|lu_factor|lu_solve|bc_sensitivity")),
     ("generated model (right-hand sides, Jacobians)", re.compile(r"suslov::model::")),
+    ("the rest of the solve (residuals, norms, desired path, mesh)",
+     re.compile(r"suslov::bvp::|suslov::lie::path|so3::desired|suslov::lie::problem")),
+    ("verification (re-integration, interpolation)",
+     re.compile(r"differential_equations|eval_parts|suslov::ivp|suslov::reconstruct|"
+                r"suslov::lie::verify|so3::reintegrate|so3::stability|lie::collapse")),
     ("figures and PNG", re.compile(r"plotters|png::|fdeflate|ab_glyph|report::figures|"
                                    r"miniz|crc32|adler")),
+    ("number formatting (CSV, JSON)", re.compile(r"flt2dec|core::fmt|ryu|serde")),
+    ("kernel, allocation and memory copies", re.compile(
+        r"^\[k\]|memset|memmove|memcpy|malloc|_int_free|_int_malloc|free$|cfree")),
 ]
 
 
@@ -190,6 +220,8 @@ def profile_phase(suslov, work, runs=5):
         if not m:
             continue
         pct, sym = float(m.group(1)), m.group(2).strip()
+        if "[k]" in line:
+            sym = "[k] " + sym
         if len(top) < 12:
             top.append((pct, sym))
         for g, rx in GROUPS:
@@ -247,6 +279,14 @@ def main():
     lines, ok = steps_table(res, args.rounds, loads)
     report += ["## One Newton step", ""] + lines + [""]
     verdicts.append(("per Newton step >= 4x the baseline on both paper meshes", ok))
+
+    say("phase 1b: step against N and n (head's bench)")
+    lines, spread = scaling_phase(os.path.join(args.work, "head"), os.path.dirname(head_bin))
+    report += ["## One Newton step against the mesh size and the state dimension", ""] + lines
+    report += [""]
+    if spread is not None:
+        verdicts.append((f"flat cost per interval, N = 10² … 10⁴ (max / min {spread:.2f} "
+                         "<= 1.5)", spread <= 1.5))
 
     say("phase 2: certificate")
     cres, cloads = certify_phase(suslov, args.certify_runs)
