@@ -262,6 +262,14 @@ def main():
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     os.makedirs(args.work, exist_ok=True)
+    if args.scipy_runs > 0:
+        try:
+            import numpy  # noqa: F401
+            import scipy  # noqa: F401
+        except ImportError as e:
+            raise SystemExit(f"{e}: install bench/requirements-scipy.txt first "
+                             "(pip install -r bench/requirements-scipy.txt), or pass "
+                             "--scipy-runs 0")
     head = run(["git", "-C", REPO, "rev-parse", "HEAD"]).strip()
     t0 = time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime())
     _, base_bin = prepare(args.work, "base", BASE_REV, "base_newton_step.patch")
@@ -303,7 +311,10 @@ def main():
 
     if args.scipy_runs > 0:
         say("phase 4: scipy pipeline (minutes)")
-        outp, ratios, sl = scipy_phase(suslov, args.scipy_runs)
+        try:
+            outp, ratios, sl = scipy_phase(suslov, args.scipy_runs)
+        except SystemExit as e:
+            outp, ratios, sl = f"The scipy pipeline failed: {e}", [], (load(), load())
         report += [f"## Side by side with scipy (`bench/scipy_paper.py`, load {sl[0]:.2f} -> "
                    f"{sl[1]:.2f})", "", outp.rstrip(), ""]
         if len(ratios) == 2:
