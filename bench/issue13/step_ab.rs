@@ -1,7 +1,7 @@
 //! One Newton step on the final mesh of each paper case, for the same-run comparison of
-//! issue #13 (`bench/issue13/targets.py` copies this file into `examples/` of each tree it
-//! compares and builds it there; it uses only API that the issue's baseline, commit 47a60f5
-//! with `bench/issue13/base_newton_step.patch`, and main both have).
+//! issue #13: main's example `step_ab` (Cargo.toml), which `bench/issue13/targets.py` also
+//! copies into `examples/` of the issue's baseline (commit 47a60f5 with
+//! `bench/issue13/base_newton_step.patch`). It uses only API that both trees have.
 //!
 //! Each paper case is solved (default options), then `bvp::NewtonStep` on its final mesh is
 //! repeated for about `STEP_BUDGET_MS` (default 1500) milliseconds, at least 9 times, with the

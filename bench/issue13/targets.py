@@ -9,8 +9,9 @@ What it does, in this order (the 1-minute load average is written next to every 
    issue's baseline (commit 47a60f5, faer's general sparse LU) with
    `bench/issue13/base_newton_step.patch` (the `bvp::NewtonStep` hook, which main has), and
    *head*, a clean checkout of this repository's HEAD (uncommitted changes are not measured).
-   `bench/issue13/step_ab.rs` is copied into `examples/` of both and built there; head's
-   `suslov` binary is built too.
+   `bench/issue13/step_ab.rs` is main's example `step_ab` (Cargo.toml; `cargo test` builds it,
+   so it keeps compiling) and is copied into the baseline's `examples/`; head's `suslov`
+   binary is built too.
 2. **One Newton step** on the final mesh of each paper case: `step_ab` of base and head in
    alternated fresh processes (`--rounds` rounds, the order swapped every round). Medians of
    the thread CPU time per step (and wall), the ratio of the medians, and the median of the
@@ -75,8 +76,9 @@ def prepare(work, name, rev, patch):
             run(["git", "-C", tree, "apply", os.path.join(REPO, "bench/issue13", patch)])
     elif not patch:
         run(["git", "-C", tree, "checkout", "-q", "--detach", rev])  # a later HEAD
-    shutil.copy(os.path.join(REPO, "bench/issue13/step_ab.rs"),
-                os.path.join(tree, "examples/step_ab.rs"))
+    if patch:  # main declares the example in Cargo.toml; the baseline gets a copy
+        shutil.copy(os.path.join(REPO, "bench/issue13/step_ab.rs"),
+                    os.path.join(tree, "examples/step_ab.rs"))
     say(f"building {name} ({rev[:12]}) in {tree} ...")
     t = time.perf_counter()
     env = dict(os.environ, CARGO_TARGET_DIR=target)
@@ -134,7 +136,7 @@ def scaling_phase(tree, target):
     env = dict(os.environ, CARGO_TARGET_DIR=target)
     outp = run(["cargo", "bench", "-q", "--bench", "bvp", "--", "step"], cwd=tree, env=env)
     l1 = load()
-    rows = [line for line in outp.splitlines() if line.startswith("| ")]
+    rows = [line for line in outp.splitlines() if line.startswith("|")]
     osc = [(int(c[2]), float(c[4])) for c in (line.split("|") for line in rows)
            if "oscillators" in c[1]]
     lines = [f"Head's `cargo bench --bench bvp -- step` (wall medians; load {l0:.2f} -> "
