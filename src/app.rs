@@ -525,7 +525,11 @@ fn solve_case(
             let mut s = summarize(name, &partial, clock.elapsed().as_secs_f64());
             // A single-solve stage (start, polish) has no continuation parameter.
             let at = if reached.is_finite() && target.is_finite() {
-                format!(" at {parameter} = {reached} (target {target})")
+                format!(
+                    " at {parameter} = {} (target {})",
+                    crate::echo::Num(reached),
+                    crate::echo::Num(target)
+                )
             } else {
                 String::new()
             };
@@ -947,11 +951,37 @@ pub fn run_certify_any(
     json: Option<&Path>,
     events: &mut dyn FnMut(AppEvent),
 ) -> Result<Vec<CertificateReport>, AppError> {
+    if let (Some(config), Some(json)) = (config, json) {
+        if same_file(config, json) {
+            return Err(AppError::InvalidArgument(format!(
+                "--json-file {}: that is the problem file being certified, which the JSON would \
+                 replace; give the JSON another name",
+                crate::echo::echo(&json.display().to_string()),
+            )));
+        }
+    }
     match any_jobs(config, tolerance)? {
         AnyJobs::So3(jobs) => run_certify(&jobs, json, events),
         AnyJobs::Other(file) => crate::model::with_model!(file.model.as_str(), M => {
             lie::run_model_certify::<M>(&file, tolerance, json, events)
         }, _ => unreachable!("config::load_any returns generated model names only")),
+    }
+}
+
+/// Whether `a` and `b` name one existing file (through symbolic or hard links).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        #[cfg(unix)]
+        (Ok(ma), Ok(mb)) => {
+            use std::os::unix::fs::MetadataExt;
+            (ma.dev(), ma.ino()) == (mb.dev(), mb.ino())
+        }
+        #[cfg(not(unix))]
+        (Ok(_), Ok(_)) => matches!(
+            (a.canonicalize(), b.canonicalize()),
+            (Ok(x), Ok(y)) if x == y
+        ),
+        _ => false,
     }
 }
 

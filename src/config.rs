@@ -87,6 +87,7 @@
 //!
 //! Accepted oddities are reported as [`ConfigWarning`]s in [`LoadedProblem::warnings`].
 
+use crate::echo::Num;
 use std::fmt;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -1397,10 +1398,12 @@ pub(crate) fn expression_path(
         .iter()
         .flatten()
         .map(|(k, v)| {
-            Ok((
-                k.clone(),
-                finite(&format!("desired.constants.{}", clip(k)), *v)?,
-            ))
+            let field = format!("desired.constants.{}", clip(k));
+            crate::lie::expression::check_constant_name(k).map_err(|why| ConfigError::Invalid {
+                field: field.clone(),
+                message: format!("{:?} {why}; rename the constant", clip(k)),
+            })?;
+            Ok((k.clone(), finite(&field, *v)?))
         })
         .collect::<Result<_, ConfigError>>()?;
     let expression =
@@ -1539,6 +1542,24 @@ fn check_path_finite(
     Ok(())
 }
 
+/// An expression path's `end_time`: finite, and after `t0` by at least
+/// [`TIME_SPAN_REL_MIN`] of the times' size (as the terminal time must be).
+pub(crate) fn expression_end_time(t: f64, t0: f64) -> Result<f64, ConfigError> {
+    let t = finite("desired.end_time", t)?;
+    if t - t0 < TIME_SPAN_REL_MIN * t0.abs().max(t.abs()) || t - t0 <= 0.0 {
+        return Err(ConfigError::OutOfRange {
+            field: "desired.end_time".into(),
+            value: Num(t).to_string(),
+            requirement: format!(
+                "the path's end must come after t0 = {} (by at least {TIME_SPAN_REL_MIN:e} of \
+                 the times' size): give the time at which the desired path ends",
+                Num(t0)
+            ),
+        });
+    }
+    Ok(t)
+}
+
 /// When the desired path is not finite and twice the kinetic energy of `omega_a` lies
 /// outside this range, its scale is named as the cause (not the times): the projection onto
 /// the energy ellipsoid overflowed at 2E ≈ 1e-80 with a 4 s span (measured), and at 1e-60
@@ -1658,24 +1679,8 @@ pub enum SamplesProblem {
     Spline(SuslovError),
 }
 
-/// A number in a message: plain when short, in exponent notation when huge or tiny (so that
-/// `1e300` is not printed with 300 digits).
-#[derive(Debug, Clone, Copy)]
-struct Num(f64);
-
-impl fmt::Display for Num {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let a = self.0.abs();
-        if a == 0.0 || !a.is_finite() || (1e-5..1e16).contains(&a) {
-            write!(f, "{}", self.0)
-        } else {
-            write!(f, "{:e}", self.0)
-        }
-    }
-}
-
 /// Samples of `Ω_d` as CSV: rows `t, omega1, omega2, omega3`; a leading byte order mark,
-/// blank lines, `#` comments and a first line that is not numeric (a header) are skipped.
+/// blank lines, `#` comments and a first line with no number in it (a header) are skipped.
 /// At most [`MAX_SAMPLE_ROWS`] rows. Errors name the line.
 pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; DIM]>), SamplesError> {
     let text = text.strip_prefix(BOM).unwrap_or(text);
@@ -1692,7 +1697,10 @@ pub fn parse_samples(text: &str) -> Result<(Vec<f64>, Vec<[f64; DIM]>), SamplesE
         let header = std::mem::replace(&mut first_content, false);
         let numbers = match numbers {
             Ok(n) => n,
-            Err(_) if header => continue,
+            // A header has no number in it: a first row with a typo in one field is an error.
+            Err(_) if header && line.split(',').all(|f| f.trim().parse::<f64>().is_err()) => {
+                continue
+            }
             Err(source) => {
                 return Err(SamplesError::NotANumber {
                     line: i + 1,
@@ -2495,10 +2503,7 @@ impl ProblemFile {
             "expression" => {
                 reject_unused(d, kind, &["components", "constants", "end_time"])?;
                 let (expression, keys) = expression_path(d, DIM)?;
-                let end_time = d
-                    .end_time
-                    .map(|t| finite("desired.end_time", t))
-                    .transpose()?;
+                let end_time = d.end_time.map(|t| expression_end_time(t, t0)).transpose()?;
                 let path = ProjectedPath {
                     inner: Arc::new(crate::so3::desired::FromLiePath(Arc::new(expression))),
                     ellipsoid: *ellipsoid,

@@ -54,3 +54,66 @@ mod tests {
         assert!(e.ends_with("(10000 characters in all)"), "{e}");
     }
 }
+
+/// A number in a message: plain when short, in exponent notation when huge or tiny (so that
+/// `1e300` is not printed with 300 digits).
+#[derive(Debug, Clone, Copy)]
+pub struct Num(pub f64);
+
+impl std::fmt::Display for Num {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-5..1e16).contains(&a) {
+            write!(f, "{}", self.0)
+        } else {
+            write!(f, "{:e}", self.0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod num_tests {
+    use super::Num;
+
+    #[test]
+    fn huge_and_tiny_numbers_are_printed_in_exponent_notation() {
+        assert_eq!(Num(1e300).to_string(), "1e300");
+        assert_eq!(Num(-1e-300).to_string(), "-1e-300");
+        assert_eq!(Num(5e-324).to_string(), "5e-324");
+        assert_eq!(Num(0.25).to_string(), "0.25");
+        assert_eq!(Num(0.0).to_string(), "0");
+        assert_eq!(Num(f64::NAN).to_string(), "NaN");
+        // The stage messages use it (a target of 1e300 printed 301 digits).
+        let s = crate::lie::solve::where_stopped("eta", 0.0, 1e300);
+        assert_eq!(s, " at eta = 0 (target 1e300)");
+    }
+}
+
+/// A cost in a message: six decimals (as `{:.6}`), or six significant digits in exponent
+/// notation below 1e-3, where six decimals would print `0.000000` for every cost compared.
+#[derive(Debug, Clone, Copy)]
+pub struct Cost(pub f64);
+
+impl std::fmt::Display for Cost {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let a = self.0.abs();
+        if a == 0.0 || !a.is_finite() || (1e-3..1e16).contains(&a) {
+            write!(f, "{:.6}", self.0)
+        } else {
+            write!(f, "{:.5e}", self.0)
+        }
+    }
+}
+
+#[cfg(test)]
+mod cost_tests {
+    use super::Cost;
+
+    #[test]
+    fn small_costs_keep_their_digits() {
+        assert_eq!(Cost(15.394760771339978).to_string(), "15.394761");
+        assert_eq!(Cost(2.5e-7).to_string(), "2.50000e-7");
+        assert_eq!(Cost(3.6512e-7).to_string(), "3.65120e-7");
+        assert_eq!(Cost(0.0).to_string(), "0.000000");
+    }
+}

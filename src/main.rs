@@ -108,7 +108,7 @@ struct ControllabilityArgs {
     /// Inertia: for so3 the principal moments, e.g. `1,2,3` (the paper's, the default) or
     /// `I1=1,I2=2,I3=3`; for the other models their inertia parameters as name=value pairs,
     /// e.g. `m=1,Ic=0.5,c1=0.3,c2=0.1` (se2).
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "along")]
     inertia: Option<String>,
     /// The constraint parameters of a model that has them, as name=value pairs, e.g. `c=0.25`
     /// (so3_inhomogeneous: <Omega, xi> = c).
@@ -123,13 +123,13 @@ struct ControllabilityArgs {
     xi: Option<String>,
     /// Without --omega/--xi: sample states of M on the energy level set through this Omega
     /// [default: 5,0,...,0].
-    #[arg(long, allow_hyphen_values = true)]
+    #[arg(long, allow_hyphen_values = true, conflicts_with = "along")]
     omega_a: Option<String>,
     /// Number of random states of M (at most 100000).
-    #[arg(long, default_value_t = 8)]
+    #[arg(long, default_value_t = 8, conflicts_with = "along")]
     samples: usize,
     /// Seed of the random states.
-    #[arg(long, default_value_t = 1)]
+    #[arg(long, default_value_t = 1, conflicts_with = "along")]
     seed: u64,
     /// Relative rank threshold: sigma_k counts if sigma_k > rtol * sigma_1; in [1e-14, 1e-3].
     #[arg(long, allow_hyphen_values = true, default_value_t = suslov::so3::controllability::RANK_RTOL)]

@@ -469,3 +469,223 @@ fn solving_the_problem_file_of_the_output_directory_keeps_it() {
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
     assert_eq!(std::fs::read(&copy).unwrap(), written);
 }
+
+/// Writes `text` to `dir/name` and returns the path as a string.
+fn write_file(dir: &Path, name: &str, text: &str) -> String {
+    let p = dir.join(name);
+    std::fs::write(&p, text).unwrap();
+    p.display().to_string()
+}
+
+const SO4_TINY_J: &str = r#"model = "so4"
+[body]
+J1 = 1e-80
+J2 = 2e-80
+J3 = 3e-80
+J4 = 4e-80
+[boundary]
+omega_a = [2.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+omega_b = [0.0, 1.3451854182690985, 0.0, 1.3451854182690985, 0.6725927091345493, 0.0]
+terminal_time = { fixed = 3.0 }
+[cost]
+alpha = 1.0
+beta = 0.1
+gamma = 1.0
+eta = 0.1
+[desired]
+kind = "segment"
+"#;
+
+#[test]
+fn a_generic_model_far_from_unit_energy_is_refused_up_front_with_the_scale_named() {
+    // so4 with J ~ 1e-80 kept the direct start's SQP busy for minutes (killed at 180 s);
+    // Omega ~ 1e-100 printed "min |...| = NaN", Omega ~ 1e100 refused a valid start. The
+    // motion depends on the inertia only up to a factor: the scale is the user's to fix.
+    let dir = scratch("generic_scale");
+    let tiny = write_file(&dir, "tiny_j.toml", SO4_TINY_J);
+    let huge = write_file(
+        &dir,
+        "huge_omega.toml",
+        &SO4_TINY_J
+            .replace("1e-80", "1")
+            .replace("2e-80", "2")
+            .replace("3e-80", "3")
+            .replace("4e-80", "4")
+            .replace(
+                "[2.0, 0.0, 0.0, 0.0, 0.0, 1.0]",
+                "[2e100, 0, 0, 0, 0, 1e100]",
+            ),
+    );
+    for file in [&tiny, &huge] {
+        let out = dir.join("out");
+        let o = run(&["-q", "solve", file, "--out", out.to_str().unwrap()], 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{file}: {e}");
+        assert!(
+            e.contains("boundary.omega_a") && e.contains("twice the kinetic energy"),
+            "{file}: {e}"
+        );
+        assert!(!e.contains("NaN") && e.len() < 1500, "{file}: {e}");
+        assert!(
+            !out.exists(),
+            "{file}: an output directory after an input error"
+        );
+    }
+}
+
+#[test]
+fn certify_refuses_a_json_file_that_is_its_own_problem_file() {
+    // `certify copy.toml --json-file copy.toml` replaced the problem with the JSON, exit 0.
+    let dir = scratch("json_is_config");
+    let src = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml"),
+    )
+    .unwrap();
+    let file = write_file(&dir, "copy.toml", &src);
+    let link = dir.join("link.toml");
+    std::os::unix::fs::symlink(&file, &link).unwrap();
+    for json in [file.clone(), link.display().to_string()] {
+        let o = run(&["-q", "certify", &file, "--json-file", &json], 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{json}: {e}");
+        assert!(
+            e.contains("--json-file") && e.contains("problem file"),
+            "{e}"
+        );
+        assert_eq!(std::fs::read_to_string(&file).unwrap(), src, "{json}");
+    }
+}
+
+#[test]
+fn controllability_along_refuses_the_options_it_would_ignore() {
+    // --inertia, --omega-a, --samples and --seed were accepted with --along and ignored.
+    for extra in [
+        &["--inertia", "1,1,50"][..],
+        &["--omega-a", "1,0,0"][..],
+        &["--samples", "5"][..],
+        &["--seed", "7"][..],
+    ] {
+        let mut args = vec!["controllability", "--along", "examples/segment.toml"];
+        args.extend_from_slice(extra);
+        let o = run(&args, 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{extra:?}: {e}");
+        assert!(
+            e.contains(extra[0]) && e.contains("--along"),
+            "{extra:?}: {e}"
+        );
+    }
+}
+
+const EXPRESSION: &str = r#"[body]
+inertia = [1.0, 2.0, 3.0]
+[boundary]
+omega_a = [3.0, 0.0, 0.0]
+omega_b = "desired_end"
+terminal_time = { fixed = 4.0 }
+[cost]
+alpha = 1.0
+beta = 0.1
+gamma = 1.0
+eta = 0.1
+[desired]
+kind = "expression"
+components = ["3 cos(0.3 t)", "3 sin(0.3 t) / sqrt(2)", "0"]
+end_time = 4.0
+"#;
+
+#[test]
+fn expression_constants_a_formula_cannot_use_and_end_times_before_t0_are_errors() {
+    // `constants = { pi = 10 }` was accepted and ignored (the built-in won), and so were
+    // names no formula can spell; `end_time = -1` before t0 = 0 converged on Omega_d(-1).
+    let dir = scratch("expression_names");
+    let cases: [(&str, &str, &str); 7] = [
+        (
+            "constants = { pi = 10 }",
+            "desired.constants.pi",
+            "built-in",
+        ),
+        ("constants = { t = 1.0 }", "desired.constants.t", "built-in"),
+        (
+            "constants = { sin = 1 }",
+            "desired.constants.sin",
+            "built-in",
+        ),
+        (
+            "constants = { \"a b\" = 1 }",
+            "desired.constants.a b",
+            "not a name",
+        ),
+        (
+            "constants = { \"\" = 1 }",
+            "desired.constants.",
+            "not a name",
+        ),
+        ("end_time = -1.0", "desired.end_time", "after t0"),
+        ("end_time = 0.0", "desired.end_time", "after t0"),
+    ];
+    for (i, (line, field, why)) in cases.iter().enumerate() {
+        let text = if line.starts_with("end_time") {
+            EXPRESSION.replace("end_time = 4.0", line)
+        } else {
+            format!("{EXPRESSION}{line}\n")
+        };
+        let file = write_file(&dir, &format!("e{i}.toml"), &text);
+        let out = dir.join(format!("out{i}"));
+        let o = run(&["-q", "solve", &file, "--out", out.to_str().unwrap()], 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{line}: {e}");
+        assert!(e.contains(field) && e.contains(why), "{line}: {e}");
+    }
+    // A usable constant still works.
+    let file = write_file(
+        &dir,
+        "ok.toml",
+        &format!(
+            "{}constants = {{ w = 0.3 }}\n",
+            EXPRESSION.replace("0.3 t", "w t")
+        ),
+    );
+    let out = dir.join("ok_out");
+    let o = run(&["-q", "solve", &file, "--out", out.to_str().unwrap()], 120);
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}
+
+#[test]
+fn a_first_sample_row_with_a_typo_is_an_error_not_a_header() {
+    // "-1,3,0,O" (a letter O for a zero) was skipped as a header: the path lost a row.
+    let dir = scratch("sample_typo");
+    let toml = EXPRESSION
+        .replace(
+            "kind = \"expression\"\ncomponents = [\"3 cos(0.3 t)\", \"3 sin(0.3 t) / sqrt(2)\", \"0\"]\nend_time = 4.0\n",
+            "kind = \"samples\"\nfile = \"s.csv\"\n",
+        );
+    let file = write_file(&dir, "typo.toml", &toml);
+    write_file(&dir, "s.csv", "-1,3,0,O\n0,3,0,0\n2,2,1.5,0\n4,1,2,0\n");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            &file,
+            "--out",
+            dir.join("o").to_str().unwrap(),
+        ],
+        60,
+    );
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(1), "{e}");
+    assert!(e.contains("line 1"), "{e}");
+    // A real header is still skipped.
+    write_file(&dir, "s.csv", "t,w1,w2,w3\n0,3,0,0\n2,2,1.5,0\n4,1,2,0\n");
+    let o = run(
+        &[
+            "-q",
+            "solve",
+            &file,
+            "--out",
+            dir.join("o2").to_str().unwrap(),
+        ],
+        120,
+    );
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+}

@@ -650,7 +650,11 @@ pub fn run_model_solve<M: Model>(
         }) => {
             let (mut c, _) = summarize(&name, &partial);
             let at = if reached.is_finite() && target.is_finite() {
-                format!(" at {parameter} = {reached} (target {target})")
+                format!(
+                    " at {parameter} = {} (target {})",
+                    crate::echo::Num(reached),
+                    crate::echo::Num(target)
+                )
             } else {
                 String::new()
             };

@@ -56,7 +56,7 @@ use super::resolved::{
 };
 use super::{
     clip, decode, read_bounded, ConfigError, DefaultName, ProblemFile, ReadFailure, SolverSection,
-    MAX_SAMPLES_FILE_BYTES,
+    ENERGY_SCALE_RANGE, MAX_SAMPLES_FILE_BYTES,
 };
 
 /// A problem file of model `M`, checked.
@@ -187,6 +187,7 @@ fn samples<M: Model>(path: &Path) -> Result<Samples, ConfigError> {
         problem,
     })?;
     let (mut times, mut values) = (Vec::new(), Vec::new());
+    let mut first_content = true;
     for (k, line) in text.lines().enumerate() {
         let line = line.trim();
         if line.is_empty() || line.starts_with('#') {
@@ -194,9 +195,12 @@ fn samples<M: Model>(path: &Path) -> Result<Samples, ConfigError> {
         }
         let cells: Vec<&str> = line.split(',').map(str::trim).collect();
         let parsed: Result<Vec<f64>, _> = cells.iter().map(|c| c.parse::<f64>()).collect();
+        let first = std::mem::replace(&mut first_content, false);
         let Ok(row) = parsed else {
-            if times.is_empty() && values.is_empty() {
-                continue; // a header line
+            // A header: the first line, with no number in it (a first row with a typo in one
+            // field is an error, not a header).
+            if first && cells.iter().all(|c| c.parse::<f64>().is_err()) {
+                continue;
             }
             return Err(invalid(
                 "desired.file",
@@ -400,6 +404,24 @@ pub(crate) fn build<M: Model>(
     }
     let set = LevelSet::through(&inertia, n, &omega_a)
         .map_err(|e| invalid("boundary.omega_a", e.to_string()))?;
+    // Far from 2E ~ 1 the level set's projection and the solver's absolute floors (the start's
+    // Property 3 check, the SQP's regularization) lose their meaning: 2E ~ 1e-80 kept the
+    // direct start of an so4 file busy for minutes, 1e-200 printed NaN, 1e200 refused a valid
+    // start. The motion depends on the inertia only up to a constant factor, so the user can
+    // move the scale without changing the problem.
+    let energy2 = set.level();
+    if !(ENERGY_SCALE_RANGE.0..=ENERGY_SCALE_RANGE.1).contains(&energy2) {
+        return Err(invalid(
+            "boundary.omega_a",
+            format!(
+                "twice the kinetic energy <omega_a, I omega_a> = {energy2:e} is outside [{:e}, \
+                 {:e}], where the solver's tolerances lose their meaning; scale the inertia (the \
+                 [body] parameters) by one constant so that 2E is near 1: the motion and the \
+                 cost depend on the inertia only up to a constant factor",
+                ENERGY_SCALE_RANGE.0, ENERGY_SCALE_RANGE.1
+            ),
+        ));
+    }
     let tt = match boundary.get("terminal_time") {
         Some(toml::Value::Table(t)) => t,
         Some(other) => {
@@ -512,7 +534,7 @@ pub(crate) fn build<M: Model>(
             expression_keys = Some(keys);
             let end = match d.end_time {
                 Some(t) => {
-                    let t = number("desired.end_time", &toml::Value::Float(t))?;
+                    let t = super::expression_end_time(t, t0)?;
                     let mut v = vec![0.0; M::DIM];
                     expression.value_into(t, &mut v);
                     Some((t, v))

@@ -47,6 +47,7 @@
 //! motion by more than [`REINTEGRATION_TOL`] (relative) is refused, not reported.
 //! [`best_span`] scans the terminal time for the projected segment (free-time problems).
 
+use crate::echo::Cost;
 use serde::Serialize;
 
 use crate::ivp::{integrate, IvpOptions};
@@ -154,13 +155,25 @@ pub enum CollapseError {
         span: f64,
     },
     /// The re-integrated motion departs from the motion.
-    #[error(
-        "the re-integration departs from the motion by {error:e} (relative; allowed {REINTEGRATION_TOL:e})"
-    )]
+    #[error("{}", reintegration_message(*error))]
     Reintegration {
         /// The departure (NaN when the integration failed).
         error: f64,
     },
+}
+
+/// [`CollapseError::Reintegration`]'s message: the departure, or that the integration failed.
+fn reintegration_message(error: f64) -> String {
+    if error.is_finite() {
+        format!(
+            "the re-integration departs from the motion by {error:e} (relative; allowed \
+             {REINTEGRATION_TOL:e})"
+        )
+    } else {
+        "the re-integration of the motion failed (its ODE solver stopped or its state \
+         overflowed), so the motion could not be checked"
+            .to_string()
+    }
 }
 
 fn norm(v: &[f64]) -> f64 {
@@ -801,10 +814,11 @@ impl CollapseEvidence {
         if direct_cost * (1.0 + DIRECT_COST_RTOL) < self.least.cost {
             self.cheaper_discrete = Some(direct_cost);
             self.sentence.push_str(&format!(
-                "; but the direct method's minimum of the transcribed problem costs {direct_cost:.6} \
+                "; but the direct method's minimum of the transcribed problem costs {} \
                  (min |xi| {min_xi:.2e}), less than every control with a vanishing xi: a cheaper \
                  minimum may exist (regular, or collapsing on some arcs only), so the infimum is \
-                 not established"
+                 not established",
+                Cost(direct_cost)
             ));
         }
     }
@@ -868,14 +882,15 @@ fn evidence(
     let no_optimal_time = free && undercuts && falls_to_shortest(&controls, &least);
     let mut sentence = if undercuts {
         let mut s = format!(
-            "an admissible control with |xi| = {:.0e} along {} over b - a = {:.6} costs J = {:.6}, \
-             less than {compared_with} (J = {compared_cost:.6}; its motion re-integrated to \
+            "an admissible control with |xi| = {:.0e} along {} over b - a = {:.6} costs J = {}, \
+             less than {compared_with} (J = {}; its motion re-integrated to \
              within {:.1e}): the problem's infimum is at most that, approached as xi -> 0, \
              where the optimality system is singular",
             least.eps,
             least.motion.describe(),
             least.span,
-            least.cost,
+            Cost(least.cost),
+            Cost(compared_cost),
             least.reintegration_error
         );
         if no_optimal_time {
@@ -888,10 +903,11 @@ fn evidence(
     } else {
         format!(
             "no control with a vanishing xi tried costs less than {compared_with} (least: J = \
-             {:.6} along {} over b - a = {:.6}, against {compared_cost:.6})",
-            least.cost,
+             {} along {} over b - a = {:.6}, against {})",
+            Cost(least.cost),
             least.motion.describe(),
-            least.span
+            least.span,
+            Cost(compared_cost)
         )
     };
     if let Some(RelaxedOutcome::Computed {
@@ -1050,5 +1066,19 @@ mod tests {
             // the adaptive rule a few hundred.
             assert!(evaluations.get() < 20_000, "{}", evaluations.get());
         }
+    }
+}
+
+#[cfg(test)]
+mod reintegration_message_tests {
+    #[test]
+    fn a_failed_reintegration_is_said_in_words_not_as_nan() {
+        let failed = super::reintegration_message(f64::NAN);
+        assert!(
+            !failed.contains("NaN") && failed.contains("failed"),
+            "{failed}"
+        );
+        let measured = super::reintegration_message(2.5e-3);
+        assert!(measured.contains("2.5e-3"), "{measured}");
     }
 }

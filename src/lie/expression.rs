@@ -272,6 +272,30 @@ fn tokenize(text: &str) -> Result<Vec<(Token, usize)>, ExpressionError> {
     Ok(out)
 }
 
+/// Whether `name` can be a constant of the formulas: a name as the formulas spell names (a
+/// letter or `_`, then letters, digits or `_`) that is not `t`, `pi` or a function, which
+/// would always win over it (`Err` says why).
+pub fn check_constant_name(name: &str) -> Result<(), String> {
+    let mut chars = name.chars();
+    let spelled = chars.next().is_some_and(|c| c.is_alphabetic() || c == '_')
+        && chars.all(|c| c.is_alphanumeric() || c == '_');
+    if !spelled {
+        return Err(
+            "is not a name a formula can use (a letter or `_`, then letters, digits \
+                    or `_`)"
+                .into(),
+        );
+    }
+    if name == "t" || name == "pi" || FUNCS.iter().any(|(n, _)| *n == name) {
+        return Err(format!(
+            "is a built-in name (t, pi and the functions {}), which a formula would read as \
+             the built-in",
+            function_list()
+        ));
+    }
+    Ok(())
+}
+
 fn function_list() -> String {
     FUNCS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(" ")
 }

@@ -64,6 +64,7 @@
 //! solves the BVP once from that minimum, reaching regular minima that no branch from the
 //! analytic start leads to.
 
+use crate::echo::Cost;
 use std::sync::Arc;
 
 use crate::bvp::{self, Guess, Solution};
@@ -610,7 +611,11 @@ pub fn where_stopped(parameter: &str, reached: f64, target: f64) -> String {
     if parameter == "-" || !reached.is_finite() {
         String::new()
     } else {
-        format!(" at {parameter} = {reached} (target {target})")
+        format!(
+            " at {parameter} = {} (target {})",
+            crate::echo::Num(reached),
+            crate::echo::Num(target)
+        )
     }
 }
 
@@ -2173,8 +2178,9 @@ fn direct_finding<M: Model>(
     );
     let (relaxed, along_relaxed) = collapse::along_relaxed(problem);
     let head = format!(
-        "the direct method's minimum of the transcribed problem costs {:.6} with min |xi| {:.2e}",
-        d.cost, d.min_xi
+        "the direct method's minimum of the transcribed problem costs {} with min |xi| {:.2e}",
+        Cost(d.cost),
+        d.min_xi
     );
     let controls: Vec<_> = along_direct
         .clone()
@@ -2186,19 +2192,19 @@ fn direct_finding<M: Model>(
     let collapses = least.is_some_and(|c| c.cost <= d.cost * (1.0 + collapse::DIRECT_COST_RTOL));
     let mut finding = match least {
         Some(c) if collapses => format!(
-            "{head}, and an admissible control with |xi| = {:.0e} along {} costs J = {:.6} \
+            "{head}, and an admissible control with |xi| = {:.0e} along {} costs J = {} \
              (re-integrated to within {:.1e}): the minimizing controls collapse, the infimum is \
              approached as xi -> 0, where the optimality system is singular",
             c.eps,
             c.motion.describe(),
-            c.cost,
+            Cost(c.cost),
             c.reintegration_error
         ),
         Some(c) => format!(
             "{head} (a regular minimum: the least control with a vanishing xi, along {}, costs \
-             {:.6}), but the BVP does not converge from it",
+             {}), but the BVP does not converge from it",
             c.motion.describe(),
-            c.cost
+            Cost(c.cost)
         ),
         None => match along_direct {
             Err(e) => format!("{head} (its motion with a vanishing xi: {e})"),
@@ -3132,8 +3138,9 @@ fn solve_route<M: Model>(
             _ => "; a smaller or larger `solver.beta_m` may help too",
         };
         let reason = format!(
-            "the BVP at beta_m = {beta_m} from the analytic singular solution did not converge: \
+            "the BVP at beta_m = {} from the analytic singular solution did not converge: \
              {}{advice}",
+            crate::echo::Num(beta_m),
             bvp_failure(first.status)
         );
         report.outcome = StageOutcome::Stopped {
