@@ -689,3 +689,36 @@ fn a_first_sample_row_with_a_typo_is_an_error_not_a_header() {
     );
     assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
 }
+
+#[test]
+fn a_direct_minimum_whose_xi_vanishes_is_not_called_regular() {
+    // The sleigh over b - a = 1e-6: the direct minimum (min |xi| 2e-17) was called "a regular
+    // minimum" because the control with |xi| = 1e-6 cost more on so short a span, and the
+    // costs compared were printed as 0.000000 and 0.000000.
+    let dir = scratch("xi_vanishes");
+    let src = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml"),
+    )
+    .unwrap();
+    let line = src
+        .lines()
+        .find(|l| l.trim_start().starts_with("terminal_time"))
+        .unwrap();
+    let file = write_file(
+        &dir,
+        "short.toml",
+        &src.replace(line, "terminal_time = { fixed = 1e-6 }"),
+    );
+    let out = dir.join("out");
+    let o = run(&["-q", "solve", &file, "--out", out.to_str().unwrap()], 300);
+    let text = format!("{}{}", String::from_utf8_lossy(&o.stdout), stderr(&o));
+    assert_eq!(o.status.code(), Some(3), "{text}");
+    assert!(
+        text.contains("its xi vanishes, so it is not a regular minimum"),
+        "{text}"
+    );
+    assert!(
+        !text.contains("(a regular minimum") && !text.contains("costs 0.000000"),
+        "{text}"
+    );
+}

@@ -2154,6 +2154,10 @@ fn direct_route<M: Model>(
     }
 }
 
+/// `min |ξ|` of a direct minimum below which its `ξ` counts as vanishing (1e8 times below the
+/// smallest `min |ξ|` of a regular minimum the corpus has, 0.015 on spiral-189).
+const XI_VANISHES: f64 = 1e-10;
+
 /// What the direct start's minimum `d` (which the BVP could not take up) says about `problem`,
 /// for a stop without a partial solution. The controls with a vanishing `ξ` evaluated are the
 /// one along the minimum's own motion ([`super::collapse::along_samples`]) and the one along
@@ -2199,6 +2203,16 @@ fn direct_finding<M: Model>(
             c.motion.describe(),
             Cost(c.cost),
             c.reintegration_error
+        ),
+        // A minimum whose ξ itself vanishes is on the singular set, not a regular one, even
+        // when the controls with |ξ| = ε tried cost more (a span of 1e-6 made ε = 1e-6 costly).
+        Some(c) if d.min_xi < XI_VANISHES => format!(
+            "{head}: its xi vanishes, so it is not a regular minimum; the least control with \
+             |xi| = {:.0e} tried, along {}, costs {} (more: too large an |xi| for this problem's \
+             scales to show the collapse), and the BVP does not converge from it",
+            c.eps,
+            c.motion.describe(),
+            Cost(c.cost)
         ),
         Some(c) => format!(
             "{head} (a regular minimum: the least control with a vanishing xi, along {}, costs \
