@@ -1563,7 +1563,8 @@ pub(crate) fn expression_end_time(t: f64, t0: f64) -> Result<f64, ConfigError> {
 /// When the desired path is not finite and twice the kinetic energy of `omega_a` lies
 /// outside this range, its scale is named as the cause (not the times): the projection onto
 /// the energy ellipsoid overflowed at 2E ≈ 1e-80 with a 4 s span (measured), and at 1e-60
-/// the segment example still loads.
+/// the segment example still loads. Files of the generic models (`config::generic`) must lie
+/// inside it: there an so4 body at 2E ≈ 1e-80 kept the direct start busy for minutes.
 pub const ENERGY_SCALE_RANGE: (f64, f64) = (1e-60, 1e60);
 
 /// `b − t0` must be at least this fraction of `max(|t0|, |b|)`. The solver evaluates the
