@@ -1546,7 +1546,7 @@ fn check_path_finite(
 /// [`TIME_SPAN_REL_MIN`] of the times' size (as the terminal time must be).
 pub(crate) fn expression_end_time(t: f64, t0: f64) -> Result<f64, ConfigError> {
     let t = finite("desired.end_time", t)?;
-    if t - t0 < TIME_SPAN_REL_MIN * t0.abs().max(t.abs()) || t - t0 <= 0.0 {
+    if t <= t0 || t - t0 < TIME_SPAN_REL_MIN * t0.abs().max(t.abs()) {
         return Err(ConfigError::OutOfRange {
             field: "desired.end_time".into(),
             value: Num(t).to_string(),

@@ -537,10 +537,7 @@ fn a_generic_model_far_from_unit_energy_is_refused_up_front_with_the_scale_named
 fn certify_refuses_a_json_file_that_is_its_own_problem_file() {
     // `certify copy.toml --json-file copy.toml` replaced the problem with the JSON, exit 0.
     let dir = scratch("json_is_config");
-    let src = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/segment.toml"),
-    )
-    .unwrap();
+    let src = std::fs::read_to_string(example("segment.toml")).unwrap();
     let file = write_file(&dir, "copy.toml", &src);
     let link = dir.join("link.toml");
     std::os::unix::fs::symlink(&file, &link).unwrap();
@@ -696,10 +693,7 @@ fn a_direct_minimum_whose_xi_vanishes_is_not_called_regular() {
     // minimum" because the control with |xi| = 1e-6 cost more on so short a span, and the
     // costs compared were printed as 0.000000 and 0.000000.
     let dir = scratch("xi_vanishes");
-    let src = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/se2_sleigh.toml"),
-    )
-    .unwrap();
+    let src = std::fs::read_to_string(example("se2_sleigh.toml")).unwrap();
     let line = src
         .lines()
         .find(|l| l.trim_start().starts_with("terminal_time"))

@@ -47,9 +47,9 @@
 //! motion by more than [`REINTEGRATION_TOL`] (relative) is refused, not reported.
 //! [`best_span`] scans the terminal time for the projected segment (free-time problems).
 
-use crate::echo::Cost;
 use serde::Serialize;
 
+use crate::echo::Cost;
 use crate::ivp::{integrate, IvpOptions};
 use crate::model::Model;
 

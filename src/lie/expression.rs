@@ -281,9 +281,7 @@ pub fn check_constant_name(name: &str) -> Result<(), String> {
         && chars.all(|c| c.is_alphanumeric() || c == '_');
     if !spelled {
         return Err(
-            "is not a name a formula can use (a letter or `_`, then letters, digits \
-                    or `_`)"
-                .into(),
+            "is not a name a formula can use (a letter or `_`, then letters, digits or `_`)".into(),
         );
     }
     if name == "t" || name == "pi" || FUNCS.iter().any(|(n, _)| *n == name) {

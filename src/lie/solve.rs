@@ -64,11 +64,11 @@
 //! solves the BVP once from that minimum, reaching regular minima that no branch from the
 //! analytic start leads to.
 
-use crate::echo::Cost;
 use std::sync::Arc;
 
 use crate::bvp::{self, Guess, Solution};
 use crate::continuation::{self, ContinuationStatus, StepRecord};
+use crate::echo::{Cost, Num};
 use crate::model::{HomotopyRole, Model};
 
 use super::direct::{DirectForm, DirectGuess, DirectStart};
@@ -613,8 +613,8 @@ pub fn where_stopped(parameter: &str, reached: f64, target: f64) -> String {
     } else {
         format!(
             " at {parameter} = {} (target {})",
-            crate::echo::Num(reached),
-            crate::echo::Num(target)
+            Num(reached),
+            Num(target)
         )
     }
 }
@@ -3154,7 +3154,7 @@ fn solve_route<M: Model>(
         let reason = format!(
             "the BVP at beta_m = {} from the analytic singular solution did not converge: \
              {}{advice}",
-            crate::echo::Num(beta_m),
+            Num(beta_m),
             bvp_failure(first.status)
         );
         report.outcome = StageOutcome::Stopped {
