@@ -1408,14 +1408,19 @@ pub(crate) fn expression_path(
         .collect::<Result<_, ConfigError>>()?;
     let expression =
         crate::lie::expression::Expression::parse(components, &constants).map_err(|(i, e)| {
+            use crate::lie::expression::{function_names, ExpressionError};
+            // An unknown name's message lists the names already.
+            let grammar = match e {
+                ExpressionError::UnknownName { .. } => String::new(),
+                _ => format!(
+                    "; a formula uses t, numbers, + - * / ^, parentheses, pi, the functions {} \
+                     and the names of desired.constants",
+                    function_names()
+                ),
+            };
             ConfigError::Invalid {
                 field: format!("desired.components[{i}]"),
-                message: format!(
-                    "{:?}: {e}; a formula uses t, numbers, + - * / ^, parentheses, pi, the \
-                     functions sin cos tan exp log sqrt sinh cosh tanh asin acos atan and the \
-                     names of desired.constants",
-                    clip(&components[i])
-                ),
+                message: format!("{:?}: {e}{grammar}", clip(&components[i])),
             }
         })?;
     let mut keys = toml::Table::new();
@@ -1471,10 +1476,13 @@ struct Desired {
     /// The path's natural end time (default start value of a free terminal time).
     end_time: Option<f64>,
     /// The key to blame when the path is not finite somewhere ([`check_path_finite`]), and
-    /// what to change.
+    /// why it is not and what to change.
     overflow: (&'static str, &'static str),
     /// Times where the path changes fastest (checked besides a uniform grid).
     special_times: Vec<f64>,
+    /// The formulas of an expression path (checked for poles between the grid's points
+    /// too, [`check_formulas`]).
+    formulas: Option<Arc<crate::lie::expression::Expression>>,
     /// Its keys with every default filled in (`kind` included), and the file it read.
     resolved: (toml::Table, Option<Vec<u8>>),
 }
@@ -1532,14 +1540,56 @@ fn check_path_finite(
             return Err(ConfigError::Invalid {
                 field: field.into(),
                 message: format!(
-                    "{what} or one of its first three time derivatives is not finite at t = {} \
-                     (it overflows f64); {fix}",
+                    "{what} or one of its first three time derivatives is not finite at t = {}: \
+                     {fix}",
                     Num(t)
                 ),
             });
         }
     }
     Ok(())
+}
+
+/// An expression path's formulas must be finite on `[t0, b]` with their first three
+/// derivatives, at the [`PATH_CHECK_POINTS`] check times and between them (a pole between two
+/// check times would otherwise reach the solver, which fails on it for an unrelated reason or,
+/// worse, steps over it: `t/(t - 2.0001)` tracked over [0, 4] "converged").
+pub(crate) fn check_formulas(
+    formulas: &crate::lie::expression::Expression,
+    (t0, b): (f64, f64),
+) -> Result<(), ConfigError> {
+    use crate::lie::expression::Undefined;
+    let Some(undefined) = formulas.check_defined(t0, b, PATH_CHECK_POINTS) else {
+        return Ok(());
+    };
+    let (component, what) = match undefined {
+        Undefined::At { component, t } => (
+            component,
+            format!(
+                "it or one of its first three time derivatives is not finite at t = {} (e.g. \
+                 log or sqrt of a negative number, a division by zero, or an overflow)",
+                Num(t)
+            ),
+        ),
+        Undefined::Near { component, t } => (
+            component,
+            format!(
+                "it is unbounded near t = {} (a pole between the check times, where it is \
+                 finite: a division by zero, tan at an odd multiple of pi/2, or log near 0)",
+                Num(t)
+            ),
+        ),
+    };
+    Err(ConfigError::Invalid {
+        field: format!("desired.components[{component}]"),
+        message: format!(
+            "{:?}: {what}; the desired path must be finite and smooth on [t0, b] = [{}, {}]: \
+             change the formula",
+            clip(formulas.components()[component].text()),
+            Num(t0),
+            Num(b)
+        ),
+    })
 }
 
 /// An expression path's `end_time`: finite, and after `t0` by at least
@@ -2080,6 +2130,9 @@ impl ProblemFile {
                 ),
             });
         }
+        if let Some(formulas) = &desired.formulas {
+            check_formulas(formulas, (t0, b))?;
+        }
         check_path_finite(
             &*desired.path,
             &format!("the desired path ([desired] kind = \"{}\")", desired.kind),
@@ -2132,7 +2185,8 @@ impl ProblemFile {
                 &[],
                 (
                     "boundary.terminal_time",
-                    "its derivatives grow like 1/(b - t0)^3: give a later terminal time",
+                    "it overflows f64, as its derivatives grow like 1/(b - t0)^3: give a \
+                     later terminal time",
                 ),
                 energy2,
             )?;
@@ -2314,10 +2368,11 @@ impl ProblemFile {
                     end_time: Some(b_d),
                     overflow: (
                         "desired.width",
-                        "the sigmoid's derivatives grow like 1/width^3: give a larger width \
-                         (or smaller c, b_d)",
+                        "it overflows f64, as the sigmoid's derivatives grow like 1/width^3: \
+                         give a larger width (or smaller c, b_d)",
                     ),
                     special_times: vec![b_d],
+                    formulas: None,
                     resolved: (
                         desired_keys(kind, &[("c", &[c]), ("width", &[width]), ("b_d", &[b_d])]),
                         None,
@@ -2408,17 +2463,18 @@ impl ProblemFile {
                     overflow: if d.interval.is_some() {
                         (
                             "desired.interval",
-                            "its derivatives grow like 1/(t_end - t_start)^3: give a longer \
-                             interval",
+                            "it overflows f64, as its derivatives grow like 1/(t_end - \
+                             t_start)^3: give a longer interval",
                         )
                     } else {
                         (
                             "boundary.terminal_time",
-                            "the segment spans [t0, b] and its derivatives grow like \
-                             1/(b - t0)^3: give a later terminal time",
+                            "it overflows f64, as the segment spans [t0, b] and its \
+                             derivatives grow like 1/(b - t0)^3: give a later terminal time",
                         )
                     },
                     special_times: vec![a, b],
+                    formulas: None,
                     resolved: (resolved, None),
                 })
             }
@@ -2437,8 +2493,9 @@ impl ProblemFile {
                     start_hint: "value = omega_a; or set cost.gamma = 0, then Omega_d is not \
                                  part of the cost",
                     end_time: None,
-                    overflow: ("desired.value", "give a smaller value"),
+                    overflow: ("desired.value", "it overflows f64: give a smaller value"),
                     special_times: vec![],
+                    formulas: None,
                     resolved: (desired_keys(kind, &[("value", value.as_slice())]), None),
                 })
             }
@@ -2484,10 +2541,12 @@ impl ProblemFile {
                     end_time: Some(last),
                     overflow: (
                         "desired.file",
-                        "the spline's derivatives grow like (value change)/(t spacing)^3: \
-                         space the samples further apart or make them smaller",
+                        "it overflows f64, as the spline's derivatives grow like (value \
+                         change)/(t spacing)^3: space the samples further apart or make them \
+                         smaller",
                     ),
                     special_times: vec![first, last],
+                    formulas: None,
                     resolved: (
                         {
                             let mut t = desired_keys(kind, &[]);
@@ -2504,9 +2563,10 @@ impl ProblemFile {
             "expression" => {
                 reject_unused(d, kind, &["components", "constants", "end_time"])?;
                 let (expression, keys) = expression_path(d, DIM)?;
+                let expression = Arc::new(expression);
                 let end_time = d.end_time.map(|t| expression_end_time(t, t0)).transpose()?;
                 let path = ProjectedPath {
-                    inner: Arc::new(crate::so3::desired::FromLiePath(Arc::new(expression))),
+                    inner: Arc::new(crate::so3::desired::FromLiePath(expression.clone())),
                     ellipsoid: *ellipsoid,
                 };
                 // Without an end time there is no end point: "desired_end" says so (NaN is
@@ -2521,11 +2581,13 @@ impl ProblemFile {
                     end_time,
                     overflow: (
                         "desired.components",
-                        "a formula or one of its first three derivatives is not finite there \
-                         (e.g. log or sqrt of a negative number, a division by zero, or an \
-                         overflow): change the formula",
+                        "the formulas are finite there with their derivatives, so their vector \
+                         vanishes (it has no radial projection onto the energy ellipsoid) or \
+                         its projection overflows f64: change the formulas so that they do not \
+                         all vanish at once",
                     ),
                     special_times: end_time.into_iter().collect(),
+                    formulas: Some(expression),
                     resolved: (keys, None),
                 })
             }

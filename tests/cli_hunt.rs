@@ -716,3 +716,56 @@ fn a_direct_minimum_whose_xi_vanishes_is_not_called_regular() {
         "{text}"
     );
 }
+
+#[test]
+fn a_pole_of_a_formula_between_the_check_times_is_refused_up_front() {
+    // `t/(t - 2.0001)` lies between the check times 2 and 2.0039 of [0, 4]: so3 "converged"
+    // on it (cost 2.76, the pole stepped over); so4 had no check of its formulas at all and
+    // failed after a minute in the gamma stage ("mesh passes"), or, for `log(t - 1)`, on
+    // every route with NaN. Each is now an input error naming the component and the time.
+    let dir = scratch("formula_pole");
+    let so3 = write_file(
+        &dir,
+        "so3_pole.toml",
+        &std::fs::read_to_string(example("expression.toml"))
+            .unwrap()
+            .replace(r#""0"]"#, r#""t/(t - 2.0001)"]"#),
+    );
+    let so4 = |name: &str, formula: &str| {
+        write_file(
+            &dir,
+            name,
+            &SO4_TINY_J.replace("e-80", ".0").replace(
+                "kind = \"segment\"",
+                &format!(
+                    "kind = \"expression\"\ncomponents = [\"2\", \"{formula}\", \"0\", \"0\", \
+                         \"0\", \"1\"]"
+                ),
+            ),
+        )
+    };
+    let cases = [
+        (so3, "desired.components[2]", "unbounded near t = 2.000"),
+        (
+            so4("so4_pole.toml", "t/(t - 1.0001)"),
+            "desired.components[1]",
+            "unbounded near t = 1.000",
+        ),
+        (
+            so4("so4_log.toml", "log(t - 1)"),
+            "desired.components[1]",
+            "not finite at t = 0",
+        ),
+    ];
+    for (file, field, what) in cases {
+        let out = dir.join("out");
+        let o = run(&["-q", "solve", &file, "--out", out.to_str().unwrap()], 60);
+        let e = stderr(&o);
+        assert_eq!(o.status.code(), Some(1), "{file}: {e}");
+        assert!(e.contains(field) && e.contains(what), "{file}: {e}");
+        assert!(
+            !out.exists(),
+            "{file}: an output directory after an input error"
+        );
+    }
+}

@@ -124,8 +124,21 @@ fn formula_errors_name_the_component_and_the_position() {
         "kind = \"expression\"\ncomponents = [\"5\", \"log(t - 2)\", \"0\"]",
         "[5.0, 0.0, 0.0]",
     );
-    assert_eq!(e.field(), Some("desired.components"), "{msg}");
-    assert!(msg.contains("not finite"), "{msg}");
+    assert_eq!(e.field(), Some("desired.components[1]"), "{msg}");
+    assert!(msg.contains("not finite at t = 0"), "{msg}");
+    // A pole between the check times (2.0001 lies between 2 and 2.0039 on [0, 4]).
+    let (e, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"1/(t - 2.0001)\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(e.field(), Some("desired.components[1]"), "{msg}");
+    assert!(msg.contains("unbounded near t = 2.000"), "{msg}");
+    // An unknown name lists the functions once.
+    let (_, msg) = error_of(
+        "kind = \"expression\"\ncomponents = [\"5\", \"foo(t)\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    );
+    assert_eq!(msg.matches("asin").count(), 1, "{msg}");
     // "desired_end" needs an end time.
     let (e, msg) = error_of(
         "kind = \"expression\"\ncomponents = [\"5\", \"0\", \"0\"]",

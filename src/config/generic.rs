@@ -487,6 +487,7 @@ pub(crate) fn build<M: Model>(
     // The desired path (before projection) and its end time.
     let mut samples_bytes = None;
     let mut expression_keys = None;
+    let mut formulas = None;
     let (raw, end): (Option<Arc<dyn LiePath>>, Option<EndPoint>) = match kind.as_str() {
         "constant" => {
             only_keys(desired_t, "desired", &["kind", "value"])?;
@@ -531,6 +532,8 @@ pub(crate) fn build<M: Model>(
                     |e: toml::de::Error| invalid("desired", super::plain_words(e.message())),
                 )?;
             let (expression, keys) = super::expression_path(&d, M::DIM)?;
+            let expression = Arc::new(expression);
+            formulas = Some(expression.clone());
             expression_keys = Some(keys);
             let end = match d.end_time {
                 Some(t) => {
@@ -541,7 +544,7 @@ pub(crate) fn build<M: Model>(
                 }
                 None => None,
             };
-            (Some(Arc::new(expression) as Arc<dyn LiePath>), end)
+            (Some(expression as Arc<dyn LiePath>), end)
         }
         "segment" => (None, None),
         other => {
@@ -642,6 +645,9 @@ pub(crate) fn build<M: Model>(
             field: "boundary.terminal_time".into(),
             message: format!("b = {b} must be greater than t0 = {t0}"),
         });
+    }
+    if let Some(formulas) = &formulas {
+        super::check_formulas(formulas, (t0, b))?;
     }
     let mut segment_keys = None;
     let desired: Arc<dyn LiePath> = if let Some(inner) = raw {

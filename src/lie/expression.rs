@@ -19,16 +19,17 @@
 //! ```
 //!
 //! Names: `t` (time), `pi`, the constants the caller passes ([`Expression::parse`]), and the
-//! functions `sin cos tan exp log sqrt sinh cosh tanh asin acos atan`. `**` is accepted for
-//! `^`. A power with a constant integer exponent is repeated multiplication (so `t^3` is
-//! defined at `t < 0`); any other power is `exp(b log a)` and needs `a > 0`.
+//! functions `sin cos tan exp log sqrt sinh cosh tanh asin acos atan` (`ln` is `log`). `**`
+//! is accepted for `^`. A power with a constant integer exponent is repeated multiplication
+//! (so `t^3` is defined at `t < 0`); any other power is `exp(b log a)` and needs `a > 0`.
 //!
 //! Hostile input is bounded: at most [`MAX_EXPRESSION_CHARS`] characters and
 //! [`MAX_DEPTH`] levels of nesting (a parser without that limit overflows its stack on
 //! `((((…`), and every error names the position (in characters) and what was expected.
 //! Values that leave the domain of a function (`log(t - 5)` at `t = 0`, `sqrt(-1)`) evaluate
-//! to NaN; [`Expression::check_finite`] finds the first such time on a grid so that a problem
-//! file is refused before solving.
+//! to NaN; [`Expression::check_defined`] finds the first such time on a grid, and a pole
+//! between the grid's points (interval arithmetic, then the formula's growth toward it), so
+//! that a problem file is refused before solving.
 
 use num_dual::Dual3;
 
@@ -176,6 +177,260 @@ impl Node {
     }
 }
 
+/// A closed interval `[lo, hi]` of reals; `None` where an enclosure would be unbounded or
+/// leave a function's domain.
+type Span = (f64, f64);
+
+/// The interval `[lo, hi]` when both ends are finite and ordered (otherwise the enclosure is
+/// unbounded or undefined).
+fn span(lo: f64, hi: f64) -> Option<Span> {
+    (lo.is_finite() && hi.is_finite() && lo <= hi).then_some((lo, hi))
+}
+
+/// The range of `x y` for `x`, `y` in two intervals: the extremes of the corners' products.
+fn product((p, q): Span, (r, s): Span) -> Option<Span> {
+    let c = [p * r, p * s, q * r, q * s];
+    span(
+        c.iter().copied().fold(f64::INFINITY, f64::min),
+        c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+    )
+}
+
+/// `[lo, hi]` of `x^p` for an integer `p ≠ 0` (the power by multiplication that [`Node::eval`]
+/// uses): even powers are smallest at the point of the interval nearest 0; negative powers
+/// are unbounded on an interval through 0.
+fn powi_span((lo, hi): Span, p: i32) -> Option<Span> {
+    if p < 0 && lo <= 0.0 && hi >= 0.0 {
+        return None;
+    }
+    let (a, b) = (lo.powi(p), hi.powi(p));
+    if p % 2 == 0 && lo <= 0.0 && hi >= 0.0 {
+        span(0.0, a.max(b))
+    } else {
+        span(a.min(b), a.max(b))
+    }
+}
+
+/// `[lo, hi]` of `sin` on an interval: the ends, and ±1 where a crest or trough lies inside.
+fn sin_span((lo, hi): Span) -> Option<Span> {
+    use std::f64::consts::{FRAC_PI_2, PI};
+    if hi - lo >= 2.0 * PI {
+        return Some((-1.0, 1.0));
+    }
+    // Whether lo ≤ c + 2kπ ≤ hi for some integer k.
+    let contains = |c: f64| ((hi - c) / (2.0 * PI)).floor() >= ((lo - c) / (2.0 * PI)).ceil();
+    let (a, b) = (lo.sin(), hi.sin());
+    let top = if contains(FRAC_PI_2) { 1.0 } else { a.max(b) };
+    let bottom = if contains(-FRAC_PI_2) { -1.0 } else { a.min(b) };
+    span(bottom, top)
+}
+
+impl Func {
+    /// An enclosure of the function on `x`, or `None` where it may be unbounded or leave
+    /// its domain there (a pole of `tan`, `log` at or below 0, `sqrt`, `asin` and `acos`
+    /// outside their domains, an overflow of `exp`, `sinh` or `cosh`).
+    fn enclose(self, x: Span) -> Option<Span> {
+        use std::f64::consts::{FRAC_PI_2, PI};
+        let (lo, hi) = x;
+        match self {
+            Func::Sin => sin_span(x),
+            Func::Cos => sin_span((lo + FRAC_PI_2, hi + FRAC_PI_2)),
+            Func::Tan => {
+                // A pole at π/2 + kπ inside: unbounded; otherwise increasing.
+                let k = |t: f64| ((t - FRAC_PI_2) / PI).floor();
+                if k(lo) != k(hi) || hi - lo >= PI {
+                    None
+                } else {
+                    span(lo.tan(), hi.tan())
+                }
+            }
+            Func::Exp => span(lo.exp(), hi.exp()),
+            Func::Log => (lo > 0.0).then(|| span(lo.ln(), hi.ln())).flatten(),
+            Func::Sqrt => (lo >= 0.0).then(|| span(lo.sqrt(), hi.sqrt())).flatten(),
+            Func::Sinh => span(lo.sinh(), hi.sinh()),
+            Func::Cosh => {
+                let top = lo.cosh().max(hi.cosh());
+                span(
+                    if lo <= 0.0 && hi >= 0.0 {
+                        1.0
+                    } else {
+                        lo.cosh().min(hi.cosh())
+                    },
+                    top,
+                )
+            }
+            Func::Tanh => span(lo.tanh(), hi.tanh()),
+            Func::Asin => (lo >= -1.0 && hi <= 1.0)
+                .then(|| span(lo.asin(), hi.asin()))
+                .flatten(),
+            Func::Acos => (lo >= -1.0 && hi <= 1.0)
+                .then(|| span(hi.acos(), lo.acos()))
+                .flatten(),
+            Func::Atan => span(lo.atan(), hi.atan()),
+        }
+    }
+}
+
+impl Node {
+    /// An enclosure of the formula's values for `t` in `[lo, hi]` by interval arithmetic
+    /// (each operation's exact range over its operands' intervals, not rounded outward), or
+    /// `None` where the formula may be unbounded or undefined somewhere in `[lo, hi]`. The
+    /// enclosure is loose where `t` occurs more than once (`t - t` on `[0, 1]` gives
+    /// `[-1, 1]`), and tightens as the interval shrinks; so a `None` on a wide interval is a
+    /// reason to look closer, not a verdict ([`Formula::singular_between`]).
+    fn enclose(&self, t: Span) -> Option<Span> {
+        match self {
+            Node::Num(v) => span(*v, *v),
+            Node::T => Some(t),
+            Node::Neg(a) => a.enclose(t).map(|(lo, hi)| (-hi, -lo)),
+            Node::Add(a, b) => {
+                let ((p, q), (r, s)) = (a.enclose(t)?, b.enclose(t)?);
+                span(p + r, q + s)
+            }
+            Node::Sub(a, b) => {
+                let ((p, q), (r, s)) = (a.enclose(t)?, b.enclose(t)?);
+                span(p - s, q - r)
+            }
+            Node::Mul(a, b) => product(a.enclose(t)?, b.enclose(t)?),
+            Node::Div(a, b) => {
+                let ((p, q), (r, s)) = (a.enclose(t)?, b.enclose(t)?);
+                if r <= 0.0 && s >= 0.0 {
+                    return None;
+                }
+                product((p, q), (1.0 / s, 1.0 / r))
+            }
+            Node::Pow(a, b) => {
+                let x = a.enclose(t)?;
+                match b.as_ref() {
+                    Node::Num(p) if *p == p.trunc() && p.abs() <= 64.0 => {
+                        if *p == 0.0 {
+                            Some((1.0, 1.0))
+                        } else {
+                            powi_span(x, *p as i32)
+                        }
+                    }
+                    // x^p = exp(p ln x), as evaluated: x > 0.
+                    Node::Num(p) => {
+                        let l = Func::Log.enclose(x)?;
+                        let e = if *p >= 0.0 {
+                            (p * l.0, p * l.1)
+                        } else {
+                            (p * l.1, p * l.0)
+                        };
+                        Func::Exp.enclose(e)
+                    }
+                    // a^b = exp(b ln a), as evaluated: a > 0.
+                    _ => Func::Exp.enclose(product(b.enclose(t)?, Func::Log.enclose(x)?)?),
+                }
+            }
+            Node::Call(f, a) => f.enclose(a.enclose(t)?),
+        }
+    }
+}
+
+/// How many halvings of a check interval [`Formula::singular_between`] makes before it
+/// tests for growth: from the check grid's spacing `h` down to `h / 4096`.
+const HALVINGS: u32 = 12;
+/// Probes at `c ± w` and `c ± FAR w` around a suspect `c` found on an interval of width `w`.
+const FAR: f64 = 64.0;
+/// A value or slope more than this times larger at the near probes than at the far ones
+/// grows toward the suspect: a singularity. At a pole `1/(t - c)` the ratios are at least
+/// `(FAR - 1/2)/(3/2) ≈ 42` (value) and its square (slope); at `log|t - c|` the slope's
+/// is 42. A removable singularity (`sin(t - c)/(t - c)`) or a steep but bounded bump
+/// (`1/((t - c)^2 + ε)`) gives ratios near 1 or below.
+const GROWTH: f64 = 16.0;
+/// Interval evaluations allowed per formula and check (a bound on the search's work for
+/// a formula whose enclosures stay loose, e.g. with `t` repeated many times; the search
+/// then stops without a verdict).
+const ENCLOSURE_BUDGET: usize = 100_000;
+
+/// What one growth test ([`Formula::grows_toward`]) costs of [`ENCLOSURE_BUDGET`].
+const GROWTH_TEST_COST: usize = 32;
+
+/// The scales of a formula on the check grid, below which a change is rounding.
+#[derive(Debug, Clone, Copy)]
+struct Scales {
+    value: f64,
+    slope: f64,
+}
+
+impl Formula {
+    /// A time in `[lo, hi]` near which the formula is unbounded or undefined although it is
+    /// finite at `lo` and `hi` (a pole between check points: a division by zero, `tan` at
+    /// `π/2`, `log` at 0), if any; `range` is the whole interval checked (the probes stay
+    /// in it).
+    ///
+    /// Interval arithmetic ([`Node::enclose`]) clears every part of `[lo, hi]` on which the
+    /// formula is bounded; what it cannot clear is halved [`HALVINGS`] times. A suspect
+    /// interval of width `w` left at the end is a singularity when the formula's value or
+    /// slope grows toward its midpoint `c` ([`Formula::grows_toward`]). Interval arithmetic alone cannot tell a pole from a
+    /// loose enclosure (`sin(t - 1)/(t - 1)` is bounded, but its enclosure on an interval
+    /// through 1 is not).
+    fn singular_between(
+        &self,
+        (lo, hi): Span,
+        range: Span,
+        scales: Scales,
+        budget: &mut usize,
+    ) -> Option<f64> {
+        let mut stack = vec![(lo, hi, 0)];
+        while let Some((a, b, depth)) = stack.pop() {
+            if *budget == 0 {
+                return None;
+            }
+            *budget -= 1;
+            if self.root.enclose((a, b)).is_some() {
+                continue;
+            }
+            let c = 0.5 * (a + b);
+            if depth == HALVINGS || c <= a || c >= b {
+                // Its eight evaluations with derivatives cost about as much as this.
+                *budget = budget.saturating_sub(GROWTH_TEST_COST);
+                if self.grows_toward(c, b - a, range, scales) {
+                    return Some(c);
+                }
+                continue;
+            }
+            // Left half on top: the first singularity in time is found first.
+            stack.push((c, b, depth + 1));
+            stack.push((a, c, depth + 1));
+        }
+        None
+    }
+
+    /// Whether the formula grows toward `c` on two scales: from `c ± FAR w` to `c ± w`
+    /// and from `c ± FAR² w` to `c ± FAR w` ([`Formula::grows_between`]). A pole grows on
+    /// every scale; a bounded bump of width `≫ w` stops growing below its width, and
+    /// rounding noise (`(cos(t - c) - 1)/(t - c)^2` near `c`) only shows on the finest.
+    fn grows_toward(&self, c: f64, w: f64, range: Span, scales: Scales) -> bool {
+        self.grows_between(c, w, range, scales) && self.grows_between(c, FAR * w, range, scales)
+    }
+
+    /// Whether the value or the slope at `c ± w` exceeds [`GROWTH`] times its largest at
+    /// `c ± FAR w` (those far probes at least `FAR/2` widths from `c` inside `range`), or is
+    /// not finite.
+    fn grows_between(&self, c: f64, w: f64, (t0, t1): Span, scales: Scales) -> bool {
+        let jet = |t: f64| {
+            let d = self.derivatives(t.clamp(t0, t1));
+            (d[0].abs(), d[1].abs())
+        };
+        let (mut near, mut far) = ((0.0_f64, 0.0_f64), (0.0_f64, 0.0_f64));
+        for side in [-1.0, 1.0] {
+            let (v, s) = jet(c + side * w);
+            if !(v.is_finite() && s.is_finite()) {
+                return true;
+            }
+            near = (near.0.max(v), near.1.max(s));
+            let probe = (c + side * FAR * w).clamp(t0, t1);
+            if (probe - c).abs() >= 0.5 * FAR * w {
+                let (v, s) = jet(probe);
+                far = (far.0.max(v), far.1.max(s));
+            }
+        }
+        near.0 > GROWTH * (far.0 + scales.value) || near.1 > GROWTH * (far.1 + scales.slope)
+    }
+}
+
 /// Why a formula cannot be read.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum ExpressionError {
@@ -185,6 +440,14 @@ pub enum ExpressionError {
         /// 1-based position, in characters.
         position: usize,
         /// What was found and what was expected.
+        message: String,
+    },
+    /// A name that is not `t`, `pi`, a constant or a function; the message lists the names.
+    #[error("at character {position}: {message}")]
+    UnknownName {
+        /// 1-based position, in characters.
+        position: usize,
+        /// The name and the names there are.
         message: String,
     },
     /// Longer than [`MAX_EXPRESSION_CHARS`] or nested deeper than [`MAX_DEPTH`].
@@ -264,7 +527,7 @@ fn tokenize(text: &str) -> Result<Vec<(Token, usize)>, ExpressionError> {
                 message: format!(
                     "unexpected `{c}`; a formula uses numbers, t, pi, constants, + - * / ^, \
                      parentheses and the functions {}",
-                    function_list()
+                    function_names()
                 ),
             });
         }
@@ -288,13 +551,14 @@ pub fn check_constant_name(name: &str) -> Result<(), String> {
         return Err(format!(
             "is a built-in name (t, pi and the functions {}), which a formula would read as \
              the built-in",
-            function_list()
+            function_names()
         ));
     }
     Ok(())
 }
 
-fn function_list() -> String {
+/// The functions a formula may call, separated by spaces.
+pub fn function_names() -> String {
     FUNCS.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(" ")
 }
 
@@ -449,17 +713,20 @@ impl Parser<'_> {
                         Some((_, v)) => Ok(Node::Num(*v)),
                         None => {
                             self.at -= 1;
-                            self.error(format!(
-                                "unknown name `{name}`; the names are t, pi{}{} and the \
+                            Err(ExpressionError::UnknownName {
+                                position: self.position(),
+                                message: format!(
+                                    "unknown name `{name}`; the names are t, pi{}{} and the \
                                  functions {}",
-                                if self.constants.is_empty() { "" } else { ", " },
-                                self.constants
-                                    .iter()
-                                    .map(|(n, _)| n.as_str())
-                                    .collect::<Vec<_>>()
-                                    .join(", "),
-                                function_list()
-                            ))
+                                    if self.constants.is_empty() { "" } else { ", " },
+                                    self.constants
+                                        .iter()
+                                        .map(|(n, _)| n.as_str())
+                                        .collect::<Vec<_>>()
+                                        .join(", "),
+                                    function_names()
+                                ),
+                            })
                         }
                     },
                 }
@@ -570,25 +837,77 @@ impl Expression {
         &self.components
     }
 
-    /// The first `(component, t)` on `points` uniform times of `[t0, t1]` (ends included)
-    /// where a component or one of its first three derivatives is not finite (a formula
-    /// outside its domain there, e.g. `log(t - 5)` at `t = 0`), if any.
-    pub fn check_finite(&self, t0: f64, t1: f64, points: usize) -> Option<(usize, f64)> {
+    /// Where on `[t0, t1]` a component is not finite, if anywhere: first, the earliest of
+    /// `points` uniform check times (ends included) where a component or one of its first
+    /// three derivatives is not ([`Undefined::At`]: a formula outside its domain there, e.g.
+    /// `log(t - 5)` at `t = 0`); otherwise the first component, in order, that is unbounded
+    /// or undefined near a time between two check times, at its earliest such time
+    /// ([`Undefined::Near`]: `1/(t - 2.0001)` with check times at 2 and 2.0049), found by
+    /// interval arithmetic and confirmed by the formula's growth toward it
+    /// (`Formula::singular_between`).
+    pub fn check_defined(&self, t0: f64, t1: f64, points: usize) -> Option<Undefined> {
         let points = points.max(2);
-        for k in 0..points {
-            let t = if k + 1 == points {
-                t1
-            } else {
-                t0 + (t1 - t0) * k as f64 / (points - 1) as f64
-            };
+        let grid: Vec<f64> = (0..points)
+            .map(|k| {
+                if k + 1 == points {
+                    t1
+                } else {
+                    t0 + (t1 - t0) * k as f64 / (points - 1) as f64
+                }
+            })
+            .collect();
+        let mut jets = vec![Vec::with_capacity(points); self.components.len()];
+        for &t in &grid {
             for (i, f) in self.components.iter().enumerate() {
-                if f.derivatives(t).iter().any(|v| !v.is_finite()) {
-                    return Some((i, t));
+                let d = f.derivatives(t);
+                if d.iter().any(|v| !v.is_finite()) {
+                    return Some(Undefined::At { component: i, t });
+                }
+                jets[i].push(d);
+            }
+        }
+        let median = |mut v: Vec<f64>| {
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        for (i, f) in self.components.iter().enumerate() {
+            let value = median(jets[i].iter().map(|d| d[0].abs()).collect());
+            let slope = median(jets[i].iter().map(|d| d[1].abs()).collect());
+            // Changes below these are rounding, not growth.
+            let scales = Scales {
+                value: 1e-12 * value + f64::MIN_POSITIVE,
+                slope: 1e-12 * (slope + value / (t1 - t0)) + f64::MIN_POSITIVE,
+            };
+            let mut budget = ENCLOSURE_BUDGET;
+            for w in grid.windows(2) {
+                if let Some(t) = f.singular_between((w[0], w[1]), (t0, t1), scales, &mut budget) {
+                    return Some(Undefined::Near { component: i, t });
                 }
             }
         }
         None
     }
+}
+
+/// Where [`Expression::check_defined`] found a component not finite.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Undefined {
+    /// The component or one of its first three derivatives is NaN or infinite at the check
+    /// time `t`.
+    At {
+        /// 0-based component.
+        component: usize,
+        /// The check time.
+        t: f64,
+    },
+    /// The component is finite at every check time but unbounded or undefined near `t`,
+    /// between two of them (a pole: a division by zero, `tan` at `π/2`, `log` at 0).
+    Near {
+        /// 0-based component.
+        component: usize,
+        /// Where, to within `1e-6` of the interval checked.
+        t: f64,
+    },
 }
 
 impl Path for Expression {
@@ -846,11 +1165,104 @@ mod tests {
         assert!((out[3] + 3.0 * 2.0_f64.sin()).abs() < 1e-15); // Ω̇_1
         assert!((out[5] - 1.0).abs() < 1e-15); // d/dt log(t - 1) at 2
         assert!((out[11] - 2.0).abs() < 1e-15); // third derivative: 2/(t-1)^3
-        let (component, t) = e.check_finite(0.0, 5.0, 11).unwrap();
-        assert_eq!((component, t), (2, 0.0));
-        assert_eq!(e.check_finite(1.5, 5.0, 11), None);
+        assert_eq!(
+            e.check_defined(0.0, 5.0, 11),
+            Some(Undefined::At {
+                component: 2,
+                t: 0.0
+            })
+        );
+        assert_eq!(e.check_defined(1.5, 5.0, 11), None);
         let (i, err) = Expression::parse(&["t".into(), "t +".into()], &[]).unwrap_err();
         assert_eq!(i, 1);
         assert!(err.to_string().contains("at character"));
+    }
+
+    /// Where `check_defined` puts one formula on `[0, 5]` with 1025 check times (spacing
+    /// 1/204.8: 2.0001 lies between the check times 2 and 2.00488).
+    fn where_undefined(text: &str) -> Option<Undefined> {
+        Expression::parse(&[text.to_string()], &[])
+            .unwrap()
+            .check_defined(0.0, 5.0, 1025)
+    }
+
+    fn near(text: &str) -> f64 {
+        match where_undefined(text) {
+            Some(Undefined::Near { component: 0, t }) => t,
+            other => panic!("{text}: expected a singularity between check times, got {other:?}"),
+        }
+    }
+
+    #[test]
+    fn poles_between_check_times_are_found() {
+        // Poles of every order, of tan, a logarithmic singularity, an essential one, and
+        // a pole inside a power with a variable exponent.
+        for (text, at) in [
+            ("1/(t - 2.0001)", 2.0001),
+            ("t/(t - 2.0001)^2", 2.0001),
+            ("3 + 1/(2.0001 - t)^3", 2.0001),
+            ("tan(t - 2.0001 + pi/2)", 2.0001),
+            ("log((t - 2.0001)^2)", 2.0001),
+            ("sin(1/(t - 3.3))", 3.3),
+            // sin(t) = sin(2.0001) first at pi - 2.0001.
+            (
+                "exp(t) / (sin(t) - sin(2.0001))",
+                std::f64::consts::PI - 2.0001,
+            ),
+            ("(2 + 1/(t - 4.0002)^2)^(t/5)", 4.0002),
+        ] {
+            let t = near(text);
+            assert!(
+                (t - at).abs() < 1e-5,
+                "{text}: found {t}, the pole is at {at}"
+            );
+        }
+        // The first component with one, at its first.
+        let e = Expression::parse(
+            &[
+                "1/(t - 4.0001)".into(),
+                "1/(t - 1.0001)".into(),
+                "1/(t - 0.5)".into(),
+            ],
+            &[],
+        )
+        .unwrap();
+        match e.check_defined(0.0, 5.0, 1025) {
+            Some(Undefined::Near { component, t }) => {
+                assert_eq!(component, 0);
+                assert!((t - 4.0001).abs() < 1e-5);
+            }
+            other => panic!("{other:?}"),
+        }
+        // At a check time itself (2.5 is the 512th): the point check's verdict.
+        assert_eq!(
+            where_undefined("1/(t - 2.5)"),
+            Some(Undefined::At {
+                component: 0,
+                t: 2.5
+            })
+        );
+    }
+
+    #[test]
+    fn bounded_formulas_with_loose_enclosures_are_accepted() {
+        // Removable singularities, steep but bounded bumps, repeated t (loose enclosures),
+        // a kink, tan and log away from their poles, powers of positive bases.
+        for text in [
+            "sin(t - 2.0001)/(t - 2.0001)",
+            "(t - 2.0001)^2/(t - 2.0001)",
+            "(cos(t - 2.0001) - 1)/(t - 2.0001)^2",
+            "1/((t - 2.0001)^2 + 1e-6)",
+            "1/(t^2 - 4.0004 t + 4.00080004 + 1e-6)",
+            "1/(sin(t)^2 + cos(t)^2)",
+            "sqrt((t - 2.0001)^2)",
+            "tan(t/4)",
+            "log(t + 1e-3)",
+            "(t + 1)^(t/2)",
+            "t - t + 1/(t - t + 1)",
+            "3 cos(0.3 t)",
+        ] {
+            assert_eq!(where_undefined(text), None, "{text}");
+        }
     }
 }
