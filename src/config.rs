@@ -1489,7 +1489,7 @@ struct Desired {
 
 /// Points of the uniform grid on `[t0, b]` at which [`check_path_finite`] evaluates the
 /// path (besides `t0`, `b`, the path's end time and its special times).
-const PATH_CHECK_POINTS: usize = 1025;
+pub(crate) const PATH_CHECK_POINTS: usize = 1025;
 
 /// The desired path's value and first three derivatives (the BVP uses the first, the
 /// start's singular control up to the third) must be finite in `f64` on `[t0, b]`: a
@@ -1554,13 +1554,27 @@ fn check_path_finite(
 /// derivatives, at the [`PATH_CHECK_POINTS`] check times and between them (a pole between two
 /// check times would otherwise reach the solver, which fails on it for an unrelated reason or,
 /// worse, steps over it: `t/(t - 2.0001)` tracked over [0, 4] "converged").
+/// When the path is `projected` onto an energy level set, they must not vanish together
+/// either ([`crate::lie::expression::Expression::vanishes_near`]).
 pub(crate) fn check_formulas(
     formulas: &crate::lie::expression::Expression,
     (t0, b): (f64, f64),
+    projected: bool,
 ) -> Result<(), ConfigError> {
     use crate::lie::expression::Undefined;
     let Some(undefined) = formulas.check_defined(t0, b, PATH_CHECK_POINTS) else {
-        return Ok(());
+        return match formulas.vanishes_near(t0, b, PATH_CHECK_POINTS) {
+            Some(t) if projected => Err(ConfigError::Invalid {
+                field: "desired.components".into(),
+                message: format!(
+                    "the formulas vanish together near t = {}, where the desired path has no \
+                     direction to project onto the energy level set of omega_a (it would flip \
+                     across it): change the formulas so that they do not all vanish at once",
+                    Num(t)
+                ),
+            }),
+            _ => Ok(()),
+        };
     };
     let (component, what) = match undefined {
         Undefined::At { component, t } => (
@@ -2131,7 +2145,7 @@ impl ProblemFile {
             });
         }
         if let Some(formulas) = &desired.formulas {
-            check_formulas(formulas, (t0, b))?;
+            check_formulas(formulas, (t0, b), true)?;
         }
         check_path_finite(
             &*desired.path,

@@ -7,7 +7,7 @@
 //! | 0 | success: every case converged and verified / certified / rank dim M on M (4 for so3) |
 //! | 1 | error: a bad problem file or argument, an unwritable or busy output; nothing was solved, or the run stopped |
 //! | 2 | usage: the command line itself is malformed (clap) |
-//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M |
+//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M or found no state on M to test |
 //! | 128 + n | stopped by signal n (130: SIGINT, 143: SIGTERM, 129: SIGHUP); temporary files removed, the output directory keeps its `INCOMPLETE` mark |
 //!
 //! Nothing here panics on a closed standard output or error (`suslov … | head -1`): text
@@ -150,7 +150,8 @@ enum Outcome {
     Success,
     /// 1: bad input, unwritable or busy output.
     Error,
-    /// 3: results written, but not converged / not certified / not rank dim M.
+    /// 3: results written, but not converged / not certified / not rank dim M (or no state
+    /// of M tested).
     Negative,
 }
 
@@ -576,9 +577,11 @@ fn main() -> ExitCode {
                     } else {
                         out(&table.text);
                     }
+                    // No state on M establishes nothing: not a success (status 3).
                     match table.verdict {
-                        AccessibilityVerdict::RankDeficient { .. } => Outcome::Negative,
-                        _ => Outcome::Success,
+                        AccessibilityVerdict::Accessible { .. } => Outcome::Success,
+                        AccessibilityVerdict::RankDeficient { .. }
+                        | AccessibilityVerdict::NoStateOnM => Outcome::Negative,
                     }
                 }
                 Err(e) => fail(&e),

@@ -512,9 +512,9 @@ fn controllability_arguments_are_checked_before_the_work() {
     let (code, _, stderr) = run(&["--inertia", &long, "--omega", "1,0,0", "--xi", "0,1,0"]);
     assert_eq!(code, Some(1));
     assert!(stderr.len() < 1000, "{} bytes echoed", stderr.len());
-    // At rest: not on M; the verdict does not claim accessibility.
+    // At rest: not on M; the verdict does not claim accessibility, nor does the status.
     let (code, stdout, _) = run(&["--omega", "0,0,0", "--xi", "0,1,0"]);
-    assert_eq!(code, Some(0));
+    assert_eq!(code, Some(3));
     assert!(stdout.contains("No state tested lies on M"), "{stdout}");
     assert!(!stdout.contains("has drift"), "{stdout}");
 }

@@ -731,15 +731,16 @@ fn a_pole_of_a_formula_between_the_check_times_is_refused_up_front() {
             .unwrap()
             .replace(r#""0"]"#, r#""t/(t - 2.0001)"]"#),
     );
-    let so4 = |name: &str, formula: &str| {
+    // so4 at omega_a = [2, 0, 0, 0, 0, 1], with these six formulas.
+    let so4 = |name: &str, formulas: [&str; 6]| {
         write_file(
             &dir,
             name,
             &SO4_TINY_J.replace("e-80", ".0").replace(
                 "kind = \"segment\"",
                 &format!(
-                    "kind = \"expression\"\ncomponents = [\"2\", \"{formula}\", \"0\", \"0\", \
-                         \"0\", \"1\"]"
+                    "kind = \"expression\"\ncomponents = {:?}",
+                    formulas.map(String::from)
                 ),
             ),
         )
@@ -747,14 +748,24 @@ fn a_pole_of_a_formula_between_the_check_times_is_refused_up_front() {
     let cases = [
         (so3, "desired.components[2]", "unbounded near t = 2.000"),
         (
-            so4("so4_pole.toml", "t/(t - 1.0001)"),
+            so4("so4_pole.toml", ["2", "t/(t - 1.0001)", "0", "0", "0", "1"]),
             "desired.components[1]",
             "unbounded near t = 1.000",
         ),
         (
-            so4("so4_log.toml", "log(t - 1)"),
+            so4("so4_log.toml", ["2", "log(t - 1)", "0", "0", "0", "1"]),
             "desired.components[1]",
             "not finite at t = 0",
+        ),
+        // Through zero at t = 1.0001: no direction to project onto the level set (formulas
+        // through zero at t = 2 stopped "partial" in the gamma stage, for another reason).
+        (
+            so4(
+                "so4_zero.toml",
+                ["2 - 2 t/1.0001", "0", "0", "0", "0", "1 - t/1.0001"],
+            ),
+            "desired.components",
+            "vanish together near t = 1.000",
         ),
     ];
     for (file, field, what) in cases {

@@ -368,6 +368,20 @@ fn the_command_line_runs_another_model_at_sampled_and_given_states() {
         "{stdout}"
     );
     assert!(!stdout.contains("off the constraint level"), "{stdout}");
+    // Along a solution with <Omega, xi> = c: the residual it quotes is <Omega, xi> - c (it
+    // quoted |<Omega, xi>|/(|Omega| |xi|), "xi projected onto Omega^perp", and a 1e-10).
+    let file = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/examples/so3_inhomogeneous.toml"
+    );
+    let (code, stdout, stderr) = run(&["--along", file, "--points", "21"]);
+    assert_eq!(code, Some(0), "{stdout}{stderr}");
+    assert!(stdout.contains("rank of V = 5 at all 21 times"), "{stdout}");
+    assert!(
+        stdout.contains("max |<Omega, xi> - gamma|/(|Omega| |xi|)"),
+        "{stdout}"
+    );
+    assert!(!stdout.contains("Omega^perp"), "{stdout}");
 }
 
 #[test]

@@ -77,6 +77,55 @@ type Table = toml::Table;
 /// A desired path's end: its time (NaN for a constant) and value.
 type EndPoint = (f64, Vec<f64>);
 
+/// The path the solver tracks (after the projection onto the level set) must be finite with
+/// its first three derivatives on `[t0, b]`, at [`super::PATH_CHECK_POINTS`] uniform times:
+/// formulas that vanish together have no radial projection, samples too close together
+/// overflow the spline's derivatives. Without this check the solver met NaN and stopped for
+/// an unrelated reason (so4, formulas through zero at t = 2: "partial", gamma stage).
+fn check_path_jet(path: &dyn LiePath, (t0, b): (f64, f64), kind: &str) -> Result<(), ConfigError> {
+    let points = super::PATH_CHECK_POINTS;
+    let mut jet = vec![0.0; 4 * path.dim()];
+    for k in 0..points {
+        let t = if k + 1 == points {
+            b
+        } else {
+            t0 + (b - t0) * k as f64 / (points - 1) as f64
+        };
+        path.jet_into(t, &mut jet);
+        if jet.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        let (field, why) = match kind {
+            "expression" => (
+                "desired.components",
+                "the formulas are finite there with their derivatives, so they all vanish \
+                 together (no radial projection onto the level set) or the projection \
+                 overflows f64: change the formulas so that they do not all vanish at once",
+            ),
+            "samples" => (
+                "desired.file",
+                "it overflows f64, as the spline's derivatives grow like (value change)/(t \
+                 spacing)^3: space the samples further apart or make them smaller",
+            ),
+            "constant" => ("desired.value", "it overflows f64: give a smaller value"),
+            _ => (
+                "desired.interval",
+                "it overflows f64, as the segment's derivatives grow like 1/(t_end - \
+                 t_start)^3: give a longer interval",
+            ),
+        };
+        return Err(invalid(
+            field,
+            format!(
+                "the desired path (kind = \"{kind}\"), projected onto omega_a's energy level \
+                 set, or one of its first three time derivatives is not finite at t = {}: {why}",
+                crate::echo::Num(t)
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn invalid(field: &str, message: impl Into<String>) -> ConfigError {
     ConfigError::Invalid {
         field: field.into(),
@@ -647,7 +696,7 @@ pub(crate) fn build<M: Model>(
         });
     }
     if let Some(formulas) = &formulas {
-        super::check_formulas(formulas, (t0, b))?;
+        super::check_formulas(formulas, (t0, b), conserves_energy)?;
     }
     let mut segment_keys = None;
     let desired: Arc<dyn LiePath> = if let Some(inner) = raw {
@@ -695,6 +744,7 @@ pub(crate) fn build<M: Model>(
             )
         }
     };
+    check_path_jet(&*desired, (t0, b), &kind)?;
     // The so(3) file's solver section and its checks.
     let solver: Option<SolverSection> =
         match root.get("solver") {

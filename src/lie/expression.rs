@@ -846,17 +846,8 @@ impl Expression {
     /// interval arithmetic and confirmed by the formula's growth toward it
     /// (`Formula::singular_between`).
     pub fn check_defined(&self, t0: f64, t1: f64, points: usize) -> Option<Undefined> {
-        let points = points.max(2);
-        let grid: Vec<f64> = (0..points)
-            .map(|k| {
-                if k + 1 == points {
-                    t1
-                } else {
-                    t0 + (t1 - t0) * k as f64 / (points - 1) as f64
-                }
-            })
-            .collect();
-        let mut jets = vec![Vec::with_capacity(points); self.components.len()];
+        let grid = check_times(t0, t1, points);
+        let mut jets = vec![Vec::with_capacity(grid.len()); self.components.len()];
         for &t in &grid {
             for (i, f) in self.components.iter().enumerate() {
                 let d = f.derivatives(t);
@@ -887,6 +878,69 @@ impl Expression {
         }
         None
     }
+
+    /// A time near which all components vanish together on `[t0, t1]` (at one of `points`
+    /// uniform check times or between two of them), if any: there the vector has no
+    /// direction, and a radial projection of the path (onto an energy level set) is
+    /// undefined and flips across it. Interval arithmetic clears the intervals on which
+    /// some component keeps its sign; a suspect left after the halvings of `check_defined`'s
+    /// search counts when the vector's norm at its midpoint is below `1e-6` of its median on
+    /// the check times.
+    pub fn vanishes_near(&self, t0: f64, t1: f64, points: usize) -> Option<f64> {
+        let grid = check_times(t0, t1, points);
+        let norm = |t: f64| {
+            self.components
+                .iter()
+                .map(|f| f.value(t).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        };
+        let mut norms: Vec<f64> = grid.iter().map(|&t| norm(t)).collect();
+        norms.sort_by(f64::total_cmp);
+        let small = 1e-6 * norms[norms.len() / 2];
+        let mut budget = ENCLOSURE_BUDGET;
+        for w in grid.windows(2) {
+            let mut stack = vec![(w[0], w[1], 0)];
+            while let Some((a, b, depth)) = stack.pop() {
+                if budget == 0 {
+                    return None;
+                }
+                budget -= 1;
+                let all_through_zero = self.components.iter().all(|f| {
+                    f.root
+                        .enclose((a, b))
+                        .is_none_or(|(lo, hi)| lo <= 0.0 && hi >= 0.0)
+                });
+                if !all_through_zero {
+                    continue;
+                }
+                let c = 0.5 * (a + b);
+                if depth == HALVINGS || c <= a || c >= b {
+                    if norm(c) <= small {
+                        return Some(c);
+                    }
+                    continue;
+                }
+                stack.push((c, b, depth + 1));
+                stack.push((a, c, depth + 1));
+            }
+        }
+        None
+    }
+}
+
+/// `points` (at least 2) uniform times of `[t0, t1]`, both ends exactly.
+fn check_times(t0: f64, t1: f64, points: usize) -> Vec<f64> {
+    let points = points.max(2);
+    (0..points)
+        .map(|k| {
+            if k + 1 == points {
+                t1
+            } else {
+                t0 + (t1 - t0) * k as f64 / (points - 1) as f64
+            }
+        })
+        .collect()
 }
 
 /// Where [`Expression::check_defined`] found a component not finite.
@@ -1264,5 +1318,21 @@ mod tests {
         ] {
             assert_eq!(where_undefined(text), None, "{text}");
         }
+    }
+
+    #[test]
+    fn a_vector_through_zero_between_check_times_is_found() {
+        let e = |texts: [&str; 3]| {
+            Expression::parse(&texts.map(String::from), &[])
+                .unwrap()
+                .vanishes_near(0.0, 5.0, 1025)
+        };
+        // All three vanish at 2.0001, between the check times 2 and 2.0049.
+        let t = e(["2.0001 - t", "0", "sin(t - 2.0001)"]).unwrap();
+        assert!((t - 2.0001).abs() < 1e-5, "{t}");
+        // Each vanishes somewhere, but never together; near zero (1e-3) is not zero.
+        assert_eq!(e(["2.0001 - t", "t - 1", "sin(t - 3)"]), None);
+        assert_eq!(e(["2.0001 - t", "1e-3", "0"]), None);
+        assert_eq!(e(["3 cos(t)", "3 sin(t)", "0"]), None);
     }
 }
