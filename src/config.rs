@@ -1588,8 +1588,10 @@ pub(crate) fn check_formulas(
         Undefined::Near { component, t } => (
             component,
             format!(
-                "it is unbounded near t = {} (a pole between the check times, where it is \
-                 finite: a division by zero, tan at an odd multiple of pi/2, or log near 0)",
+                "it is unbounded near t = {}, or cannot be evaluated accurately there in f64 \
+                 (a pole between the check times, where it is finite: a division by zero, tan \
+                 at an odd multiple of pi/2, log near 0; or a cancellation such as (1 - \
+                 cos(x))/x^2 near x = 0, which 2 sin(x/2)^2/x^2 avoids)",
                 Num(t)
             ),
         ),
