@@ -158,3 +158,35 @@ fn formula_errors_name_the_component_and_the_position() {
     );
     assert!(matches!(e, ConfigError::DesiredStart { .. }), "{msg}");
 }
+
+/// Formulas of any size give the same projected path: the projection rescales a tiny or huge
+/// vector before its factor sqrt(level / q), whose third derivative overflowed for
+/// `1e-40 (...)` (refused as "not finite at t = 0") though the path is the unit one's.
+#[test]
+fn tiny_and_huge_formulas_give_the_projected_path_of_unit_ones() {
+    let path = |scale: &str| {
+        let text = problem_with(
+            &format!(
+                "kind = \"expression\"\ncomponents = [\"{scale} * 5\", \"{scale} * sin(t)\", \
+                 \"{scale} * t^2 / 10\"]"
+            ),
+            "[5.0, 0.0, 0.0]",
+        );
+        config::from_toml_str(&text)
+            .unwrap_or_else(|e| panic!("{scale}: {e}"))
+            .problem
+    };
+    let unit = path("1");
+    for scale in ["1e-40", "1e-100", "1e-200", "1e40", "1e100"] {
+        let p = path(scale);
+        for t in [0.0, 1.3, 4.0] {
+            let (a, b) = (unit.desired.jet(t), p.desired.jet(t));
+            for (x, y) in [a.value, a.d1, a.d2, a.d3]
+                .iter()
+                .zip([b.value, b.d1, b.d2, b.d3].iter())
+            {
+                assert!((x - y).norm() <= 1e-12 * (1.0 + x.norm()), "{scale} at {t}");
+            }
+        }
+    }
+}

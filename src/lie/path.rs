@@ -58,14 +58,20 @@ pub(crate) fn is_normal_positive(x: f64) -> bool {
     x.is_finite() && x >= f64::MIN_POSITIVE
 }
 
+/// Where [`project_radially_in_place`] scales by `sqrt(level / q(v))` directly: beyond it the
+/// third derivative of that factor, which divides by `q^(7/2)`, overflows although the value
+/// does not (the formulas `1e-40 (2 + sin t)`, `0`, `0` gave a non-finite jet at t = 0; the
+/// paths of 1e-200 did not, being rescaled below the normal range).
+pub(crate) const DIRECT_PROJECTION_RANGE: (f64, f64) = (1e-60, 1e60);
+
 /// The radial projection `v ← v · sqrt(level / q(v))` in place, for any positive definite
 /// quadratic form `q` (here the diagonal [`Inertia`]; in [`crate::lie::path::LevelSet`] a
 /// full matrix) and any [`Scalar`].
 ///
-/// When `q(v)` or `level / q(v)` is not a normal `f64` (a huge or tiny `v`), `v` is first
-/// divided by its largest `|v_i|` at the point (a constant, so dual-number derivatives stay
-/// exact): the projection only depends on the ray. No other checks: a zero vector gives
-/// non-finite output.
+/// When `q(v)` or `level / q(v)` lies outside [`DIRECT_PROJECTION_RANGE`] (a huge or tiny
+/// `v`), `v` is first divided by its largest `|v_i|` at the point (a constant, so dual-number
+/// derivatives stay exact): the projection only depends on the ray. No other checks: a zero
+/// vector gives non-finite output.
 pub(crate) fn project_radially_in_place<D: Scalar>(
     level: f64,
     v: &mut [D],
@@ -73,10 +79,8 @@ pub(crate) fn project_radially_in_place<D: Scalar>(
 ) {
     let q = quadratic(v);
     let m = v.iter().map(|x| x.re().abs()).fold(0.0, f64::max);
-    if !(is_normal_positive(q.re()) && is_normal_positive(level / q.re()))
-        && m > 0.0
-        && m.is_finite()
-    {
+    let direct = |x: f64| (DIRECT_PROJECTION_RANGE.0..=DIRECT_PROJECTION_RANGE.1).contains(&x);
+    if !(direct(q.re()) && direct(level / q.re())) && m > 0.0 && m.is_finite() {
         for x in v.iter_mut() {
             *x /= m;
         }
