@@ -1946,6 +1946,20 @@ impl ProblemFile {
                 ),
             })?;
         let energy2 = inertia.apply(&omega_a).dot(&omega_a);
+        // As for the generic models: far from 2E ~ 1 the tolerances lose their meaning (the
+        // projection no longer overflows there to say so, since it rescales).
+        if !(ENERGY_SCALE_RANGE.0..=ENERGY_SCALE_RANGE.1).contains(&energy2) {
+            return Err(ConfigError::Invalid {
+                field: "boundary.omega_a".into(),
+                message: format!(
+                    "twice the kinetic energy <omega_a, I omega_a> = {energy2:e} is outside \
+                     [{:e}, {:e}], where the solver's tolerances lose their meaning; rescale \
+                     omega_a, omega_b and the desired path (or body.inertia) towards 2E ~ 1: \
+                     the motion and the cost depend on them only up to constant factors",
+                    ENERGY_SCALE_RANGE.0, ENERGY_SCALE_RANGE.1
+                ),
+            });
+        }
         let tt = boundary.terminal_time.as_ref().ok_or_else(|| {
             missing(
                 "boundary.terminal_time",
