@@ -1503,7 +1503,6 @@ fn check_path_finite(
     (t0, b): (f64, f64),
     special_times: &[f64],
     (field, fix): (&str, &str),
-    energy2: f64,
 ) -> Result<(), ConfigError> {
     let grid =
         (0..PATH_CHECK_POINTS).map(|k| t0 + (b - t0) * k as f64 / (PATH_CHECK_POINTS - 1) as f64);
@@ -1517,26 +1516,6 @@ fn check_path_finite(
             .iter()
             .all(|v| v.iter().all(|x| x.is_finite()));
         if !finite {
-            // The projection onto E divides by powers of <I Omega, Omega> (its derivatives up
-            // to the third): on an ellipsoid of 2E = 1e-80 it overflows whatever the times
-            // (measured: |omega_a| = 3e-40 with I = diag(1, 2, 3) and b - t0 = 4). Blame the
-            // scale, not the times, when it is that far from 1.
-            if !(ENERGY_SCALE_RANGE.0..=ENERGY_SCALE_RANGE.1).contains(&energy2) {
-                return Err(ConfigError::Invalid {
-                    field: "boundary.omega_a".into(),
-                    message: format!(
-                        "{what} or one of its first three time derivatives is not finite at \
-                         t = {} (it overflows f64): twice the kinetic energy <omega_a, I \
-                         omega_a> = {energy2:e} is outside [{:e}, {:e}], and the projection \
-                         onto the energy ellipsoid divides by its powers; rescale omega_a, \
-                         omega_b and the desired path (or body.inertia) towards 2E ~ 1 (if \
-                         not that: {fix})",
-                        Num(t),
-                        ENERGY_SCALE_RANGE.0,
-                        ENERGY_SCALE_RANGE.1
-                    ),
-                });
-            }
             return Err(ConfigError::Invalid {
                 field: field.into(),
                 message: format!(
@@ -2169,7 +2148,6 @@ impl ProblemFile {
             (t0, b),
             &desired.special_times,
             desired.overflow,
-            energy2,
         )?;
 
         // Omega_b.
@@ -2218,7 +2196,6 @@ impl ProblemFile {
                     "it overflows f64, as its derivatives grow like 1/(b - t0)^3: give a \
                      later terminal time",
                 ),
-                energy2,
             )?;
         }
 

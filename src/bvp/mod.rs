@@ -141,7 +141,8 @@
 //! `sin x`). Candidates are therefore also checked for conditioning: the response of the
 //! discrete solution to a unit change of a boundary condition (with one step of iterative
 //! refinement to detect singularity to working precision) and a Hager-Higham estimate of the
-//! condition number of the row-equilibrated Newton matrix; see
+//! condition number of the Newton matrix equilibrated in its rows and columns (so that
+//! neither the scaling of a boundary condition nor the units of an unknown count); see
 //! [`Options::conditioning_limit`]. With finite-difference Jacobians these measures are less
 //! reliable near singularity (the factored matrix is not the exact Jacobian).
 //!

@@ -134,7 +134,8 @@ pub struct Stats {
     /// `max_r ||J^{-1} e_r||_inf` over boundary rows `r` (see `Options::conditioning_limit`).
     pub bc_condition: f64,
     /// Estimate of the 1-norm condition number of the condensed global Newton matrix on the
-    /// last mesh (Hager-Higham). Above `1e-3 / eps` the matrix counts as numerically singular.
+    /// last mesh, equilibrated in its rows and columns (Hager-Higham; the units of the
+    /// unknowns do not count). Above `1e-3 / eps` the matrix counts as numerically singular.
     pub condition_estimate: f64,
     /// Growth of the structured factorisation of that matrix: the largest entry of its
     /// triangular factor (and, for elimination, of every intermediate carried row) relative to
