@@ -190,3 +190,46 @@ fn tiny_and_huge_formulas_give_the_projected_path_of_unit_ones() {
         }
     }
 }
+
+/// Steep steps and pulses written as quotients (a logistic `1/(1 + exp(-k (t - c)))`, a pulse
+/// `1/cosh(k (t - c))`, a high power `1/(1 + (t - c)^2)^p`) load: their denominators
+/// overflow f64 far from the step, which made every derivative inf/inf = NaN and the file was
+/// refused as "not finite at t = 0" although the path is smooth and its values there are 0.
+/// Their jets are finite everywhere on [0, 4], and the step's value is 1/2 at its centre.
+#[test]
+fn steep_steps_and_pulses_written_as_quotients_load() {
+    for components in [
+        r#"["5", "1/(1 + exp(-355 (t - 2.0001)))", "0"]"#,
+        r#"["5", "exp(400 (t - 2))/(1 + exp(400 (t - 2)))", "0"]"#,
+        r#"["5", "1/cosh(360 (t - 2))", "0"]"#,
+        r#"["5", "1/(1 + (t - 2)^2)^200", "0"]"#,
+        r#"["5", "1/exp(400 (t - 2)^2)", "0"]"#,
+    ] {
+        let text = problem_with(
+            &format!("kind = \"expression\"\ncomponents = {components}\nend_time = 4.0"),
+            "\"desired_end\"",
+        );
+        let loaded = config::from_toml_str(&text).unwrap_or_else(|e| panic!("{components}: {e}"));
+        for k in 0..=400 {
+            let jet = loaded.problem.desired.jet(0.01 * f64::from(k));
+            for v in [jet.value, jet.d1, jet.d2, jet.d3] {
+                assert!(
+                    v.iter().all(|x| x.is_finite()),
+                    "{components} at {k}: {v:?}"
+                );
+            }
+        }
+    }
+    let text = problem_with(
+        "kind = \"expression\"\ncomponents = [\"5\", \"1/(1 + exp(-355 (t - 2)))\", \"0\"]\nend_time = 4.0",
+        "\"desired_end\"",
+    );
+    let step = config::from_toml_str(&text)
+        .unwrap()
+        .problem
+        .desired
+        .jet(2.0)
+        .value;
+    // Projected radially onto the ellipsoid of omega_a = [5, 0, 0]: the direction [5, 1/2, 0].
+    assert!((step[1] / step[0] - 0.1).abs() < 1e-14, "{step:?}");
+}

@@ -55,6 +55,12 @@ enum Func {
     Asin,
     Acos,
     Atan,
+    /// `1/(1 + exp(a))`, written by the user as that quotient ([`Node::stabilize`]); not a
+    /// name a formula can call.
+    Logistic,
+    /// `1/cosh(a)`, written as that quotient ([`Node::stabilize`]); not a name a formula can
+    /// call.
+    Sech,
 }
 
 const FUNCS: [(&str, Func); 13] = [
@@ -100,8 +106,40 @@ impl Func {
             Func::Asin => a.asin(),
             Func::Acos => a.acos(),
             Func::Atan => a.atan(),
+            // Through e = exp(-|a|) ≤ 1, as tanh: the quotients as written overflow in
+            // exp(a) or cosh(a) beyond |a| ≈ 710, and their derivatives become inf/inf = NaN
+            // although their values are 0 (a logistic step 1/(1 + exp(-355 (t - 2))) at t = 0).
+            Func::Logistic => {
+                let one = D::from(1.0);
+                if a.re() >= 0.0 {
+                    let e = (-a).exp();
+                    e / (one + e)
+                } else {
+                    one / (one + a.exp())
+                }
+            }
+            Func::Sech => {
+                let e = if a.re() >= 0.0 { (-a).exp() } else { a.exp() };
+                e * D::from(2.0) / (D::from(1.0) + e * e)
+            }
         }
     }
+}
+
+/// `1/(1 + exp(x))` in `f64` without overflow.
+fn logistic(x: f64) -> f64 {
+    if x >= 0.0 {
+        let e = (-x).exp();
+        e / (1.0 + e)
+    } else {
+        1.0 / (1.0 + x.exp())
+    }
+}
+
+/// `1/cosh(x)` in `f64` without overflow.
+fn sech(x: f64) -> f64 {
+    let e = (-x.abs()).exp();
+    2.0 * e / (1.0 + e * e)
 }
 
 /// The syntax tree of a formula.
@@ -141,7 +179,7 @@ impl Node {
             }
             Node::Div(a, b) => {
                 let (a, b) = both(a, b);
-                Node::Div(a, b)
+                Node::stabilize(a, b)
             }
             Node::Pow(a, b) => {
                 let (a, b) = both(a, b);
@@ -152,6 +190,53 @@ impl Node {
             folded
         } else {
             Node::Num(folded.eval(0.0))
+        }
+    }
+
+    /// `a / b`, rewritten where `b` overflows while the quotient and its derivatives stay
+    /// small, so that their dual numbers do not turn into inf/inf = NaN:
+    /// - `a / exp(u)` as `a exp(-u)`;
+    /// - `a / (1 + exp(u))` (either order of the sum) as `a logistic(u)`, and
+    ///   `exp(u) / (1 + exp(u))` as `logistic(-u)`;
+    /// - `a / cosh(u)` as `a sech(u)`;
+    /// - `a / b^p` with a constant `p > 0` as `a b^(-p)` (a bump `1/(1 + (t - 50)^2)^200`).
+    ///
+    /// The rewritten forms are evaluated without overflow (`Func::Logistic`, `Func::Sech`, a
+    /// power that underflows to 0). Smooth steps and pulses that steep were refused as "not
+    /// finite" at times where their values are 0.
+    fn stabilize(a: Box<Node>, b: Box<Node>) -> Node {
+        let call = |f, u: Box<Node>| Box::new(Node::Call(f, u));
+        let one_plus_exp = |b: &Node| match b {
+            Node::Add(x, y) => match (x.as_ref(), y.as_ref()) {
+                (Node::Num(c), Node::Call(Func::Exp, u))
+                | (Node::Call(Func::Exp, u), Node::Num(c))
+                    if *c == 1.0 =>
+                {
+                    Some(u.clone())
+                }
+                _ => None,
+            },
+            _ => None,
+        };
+        if let Some(u) = one_plus_exp(&b) {
+            return match *a {
+                Node::Call(Func::Exp, ref v) if *v == u => {
+                    Node::Call(Func::Logistic, Box::new(Node::Neg(u)))
+                }
+                Node::Num(1.0) => Node::Call(Func::Logistic, u),
+                _ => Node::Mul(a, call(Func::Logistic, u)),
+            };
+        }
+        match *b {
+            Node::Call(Func::Exp, u) => Node::Mul(a, call(Func::Exp, Box::new(Node::Neg(u)))),
+            Node::Call(Func::Cosh, u) => Node::Mul(a, call(Func::Sech, u)),
+            Node::Pow(base, p) => match *p {
+                Node::Num(p) if p > 0.0 => {
+                    Node::Mul(a, Box::new(Node::Pow(base, Box::new(Node::Num(-p)))))
+                }
+                p => Node::Div(a, Box::new(Node::Pow(base, Box::new(p)))),
+            },
+            b => Node::Div(a, Box::new(b)),
         }
     }
 
@@ -292,6 +377,15 @@ impl Func {
                 .then(|| span(hi.acos(), lo.acos()))
                 .flatten(),
             Func::Atan => span(lo.atan(), hi.atan()),
+            Func::Logistic => span(logistic(hi), logistic(lo)),
+            Func::Sech => {
+                let (a, b) = (sech(lo), sech(hi));
+                if lo <= 0.0 && hi >= 0.0 {
+                    span(a.min(b), 1.0)
+                } else {
+                    span(a.min(b), a.max(b))
+                }
+            }
         }
     }
 }
@@ -1362,6 +1456,62 @@ mod tests {
                 t: 2.5
             })
         );
+    }
+
+    /// Quotients whose denominators overflow (`exp`, `cosh`, `1 + exp`, high powers) are
+    /// rewritten so that steep steps and pulses keep finite derivatives: at moderate
+    /// arguments the rewritten jets are the plain quotients' (written so that the rewrite
+    /// does not match: `+ 0 t` in the denominator), to 1e-13; where the denominators overflow
+    /// the jets are finite and vanish, as the exact ones (below 1e-300). The enclosures of
+    /// the new functions contain their values.
+    #[test]
+    fn steep_quotients_keep_finite_derivatives() {
+        for (rewritten, plain) in [
+            ("1/(1 + exp(t))", "1/((1 + exp(t)) + 0 t)"),
+            ("3/(exp(2 t) + 1)", "3/((exp(2 t) + 1) + 0 t)"),
+            ("exp(t)/(1 + exp(t))", "exp(t)/((1 + exp(t)) + 0 t)"),
+            ("sin(t)/exp(t^2)", "sin(t)/(exp(t^2) + 0 t)"),
+            ("2/cosh(3 t)", "2/(cosh(3 t) + 0 t)"),
+            ("t/(1 + t^2)^3", "t/((1 + t^2)^3 + 0 t)"),
+            ("1/(1 + t^2)^2.5", "1/((1 + t^2)^2.5 + 0 t)"),
+        ] {
+            for t in [0.7, -0.7, 1.9] {
+                let (a, b) = (d(rewritten, t), d(plain, t));
+                assert!(close(a, b, 1e-13), "{rewritten} at {t}: {a:?} vs {b:?}");
+            }
+        }
+        for (text, t) in [
+            ("1/(1 + exp(-355 (t - 2.0001)))", 0.0),
+            ("1/(1 + exp(-(t - 800)))", 0.0),
+            ("exp(t - 800)/(1 + exp(t - 800))", 0.0),
+            ("1/cosh(360 (t - 2))", 0.0),
+            ("1/cosh(360 (t - 2))", 4.0),
+            ("1/(1 + (t - 50)^2)^200", 0.0),
+            ("1/exp((t - 50)^2)", 0.0),
+        ] {
+            let jet = d(text, t);
+            assert!(
+                jet.iter().all(|v| v.abs() < 1e-300),
+                "{text} at {t}: {jet:?}"
+            );
+        }
+        // The step and the pulse as paths over [0, 5]: bounded, not refused.
+        for text in ["1/(1 + exp(-355 (t - 2.0001)))", "1/cosh(360 (t - 2))"] {
+            assert_eq!(where_undefined(text), None, "{text}");
+        }
+        for f in [Func::Logistic, Func::Sech] {
+            for (lo, hi) in [(-800.0, -700.0), (-3.0, 2.0), (0.5, 1.5), (700.0, 800.0)] {
+                let (a, b) = f.enclose((lo, hi)).unwrap();
+                for k in 0..=20 {
+                    let x = lo + (hi - lo) * k as f64 / 20.0;
+                    let y = f.apply(x);
+                    assert!(
+                        a <= y && y <= b,
+                        "{f:?} [{lo}, {hi}] at {x}: {y} not in [{a}, {b}]"
+                    );
+                }
+            }
+        }
     }
 
     #[test]
