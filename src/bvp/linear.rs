@@ -380,6 +380,19 @@ mod tests {
     use super::super::abd::tests::stream;
     use super::*;
 
+    /// A random system with diagonally heavy interval blocks and random boundary rows.
+    fn diagonally_heavy(n: usize, k: usize, m: usize, seed: u64) -> GlobalSystem {
+        let mut sys = GlobalSystem::new(n, k, m);
+        let mut rnd = stream(seed);
+        let wc = 2 * n + k;
+        for (i, v) in sys.values.iter_mut().enumerate() {
+            let (row, col) = (i / wc, i % wc);
+            let diagonal = row < (m - 1) * n && col == row % n + n;
+            *v = rnd() + if diagonal { 4.0 } else { 0.0 };
+        }
+        sys
+    }
+
     /// The blocked sensitivity (two solves for all boundary rows at once) is the value of the
     /// plain column-by-column computation, to the bit, after LU and after QR; and it is
     /// infinite where the plain one is (a singular matrix).
@@ -387,19 +400,7 @@ mod tests {
     fn the_blocked_sensitivity_is_the_columnwise_one() {
         for (n, k, m) in [(2, 0, 3), (3, 1, 8), (12, 1, 60), (24, 1, 7)] {
             for lu in [true, false] {
-                let mut sys = GlobalSystem::new(n, k, m);
-                let mut rnd = stream((n * 100 + k * 10 + m) as u64);
-                let wc = 2 * n + k;
-                for (i, v) in sys.values.iter_mut().enumerate() {
-                    // Diagonally heavy interval blocks, random boundary rows.
-                    let (row, col) = (i / wc, i % wc);
-                    *v = rnd()
-                        + if row < (m - 1) * n && col == row % n + n {
-                            4.0
-                        } else {
-                            0.0
-                        };
-                }
+                let mut sys = diagonally_heavy(n, k, m, (n * 100 + k * 10 + m) as u64);
                 sys.abd.set_try_lu(lu);
                 sys.factor().expect("nonsingular");
                 let (first, rows) = ((m - 1) * n, n + k);
@@ -472,18 +473,8 @@ mod tests {
     #[test]
     fn the_condition_estimate_is_the_equilibrated_matrix_s_and_ignores_units() {
         for (n, k, m) in [(3, 1, 6), (12, 1, 10), (6, 0, 20)] {
-            let mut sys = GlobalSystem::new(n, k, m);
-            let mut rnd = stream((n * 7 + k * 3 + m) as u64);
+            let mut sys = diagonally_heavy(n, k, m, (n * 7 + k * 3 + m) as u64);
             let wc = 2 * n + k;
-            for (i, v) in sys.values.iter_mut().enumerate() {
-                let (row, col) = (i / wc, i % wc);
-                *v = rnd()
-                    + if row < (m - 1) * n && col == row % n + n {
-                        4.0
-                    } else {
-                        0.0
-                    };
-            }
             let mut estimates = Vec::new();
             for scaled in [false, true] {
                 if scaled {
