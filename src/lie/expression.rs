@@ -126,22 +126,6 @@ impl Func {
     }
 }
 
-/// `1/(1 + exp(x))` in `f64` without overflow.
-fn logistic(x: f64) -> f64 {
-    if x >= 0.0 {
-        let e = (-x).exp();
-        e / (1.0 + e)
-    } else {
-        1.0 / (1.0 + x.exp())
-    }
-}
-
-/// `1/cosh(x)` in `f64` without overflow.
-fn sech(x: f64) -> f64 {
-    let e = (-x.abs()).exp();
-    2.0 * e / (1.0 + e * e)
-}
-
 /// The syntax tree of a formula.
 #[derive(Debug, Clone, PartialEq)]
 enum Node {
@@ -377,9 +361,9 @@ impl Func {
                 .then(|| span(hi.acos(), lo.acos()))
                 .flatten(),
             Func::Atan => span(lo.atan(), hi.atan()),
-            Func::Logistic => span(logistic(hi), logistic(lo)),
+            Func::Logistic => span(self.apply(hi), self.apply(lo)),
             Func::Sech => {
-                let (a, b) = (sech(lo), sech(hi));
+                let (a, b) = (self.apply(lo), self.apply(hi));
                 if lo <= 0.0 && hi >= 0.0 {
                     span(a.min(b), 1.0)
                 } else {
