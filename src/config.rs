@@ -1574,6 +1574,16 @@ pub(crate) fn check_formulas(
                 Num(t)
             ),
         ),
+        Undefined::Jump { component, t, size } => (
+            component,
+            format!(
+                "it jumps near t = {} by about {:.3e} (a sign or a step written through a division by \
+                 zero, such as u/sqrt(u^2), atan(1/u) or tanh(1/u) at u = 0; the desired path \
+                 must be continuous: write a step of width w as tanh((t - c)/w))",
+                Num(t),
+                size
+            ),
+        ),
     };
     Err(ConfigError::Invalid {
         field: format!("desired.components[{component}]"),

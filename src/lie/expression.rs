@@ -28,8 +28,12 @@
 //! `((((…`), and every error names the position (in characters) and what was expected.
 //! Values that leave the domain of a function (`log(t - 5)` at `t = 0`, `sqrt(-1)`) evaluate
 //! to NaN; [`Expression::check_defined`] finds the first such time on a grid, and a pole
-//! between the grid's points (interval arithmetic, then the formula's growth toward it), so
-//! that a problem file is refused before solving.
+//! between the grid's points (interval arithmetic, then the formula's growth toward it), or
+//! a jump there (a sign or step written through a division by zero, `atan(1/u)`, whose
+//! values stay bounded), so that a problem file is refused before solving. Kinks
+//! (`sqrt(u^2)`) and integrable slopes (`u log(u^2)`) are continuous and accepted: the
+//! solver resolves them (`tests/expression_paths.rs` solves a kink to the limit of its
+//! smoothings).
 
 use num_dual::Dual3;
 
@@ -450,10 +454,19 @@ const GROWTH: f64 = 16.0;
 /// goes to the solver unchecked between the check times.
 const ENCLOSURE_BUDGET: usize = 20_000_000;
 
-/// What one growth test ([`Formula::grows_toward`]) costs of [`ENCLOSURE_BUDGET`], per node
-/// of the formula (up to twelve evaluations with derivatives, each several times an interval
-/// evaluation).
-const GROWTH_TEST_COST: usize = 48;
+/// What one growth and jump test ([`Formula::grows_toward`], [`Formula::jumps_at`]) costs of
+/// [`ENCLOSURE_BUDGET`], per node of the formula (up to eighteen evaluations with
+/// derivatives, each several times an interval evaluation).
+const GROWTH_TEST_COST: usize = 72;
+
+/// What [`Formula::singular_between`] found.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Suspect {
+    /// The formula is unbounded or undefined near this time.
+    Pole(f64),
+    /// The formula jumps by `size` at `t`.
+    Jump { t: f64, size: f64 },
+}
 
 /// The scales of a formula on the check grid, below which a change is rounding.
 #[derive(Debug, Clone, Copy)]
@@ -465,8 +478,9 @@ struct Scales {
 impl Formula {
     /// A time in `[lo, hi]` near which the formula is unbounded or undefined although it is
     /// finite at `lo` and `hi` (a pole between check points: a division by zero, `tan` at
-    /// `π/2`, `log` at 0), if any; `range` is the whole interval checked (the probes stay
-    /// in it).
+    /// `π/2`, `log` at 0), or jumps although it is bounded (a sign or step written through a
+    /// division by zero: `u/sqrt(u^2)`, `atan(1/u)`, `tanh(1/u)` at `u = 0`), if any; `range`
+    /// is the whole interval checked (the probes stay in it).
     ///
     /// Interval arithmetic ([`Node::enclose`]) clears every part of `[lo, hi]` on which the
     /// formula is bounded; what it cannot clear is halved [`HALVINGS`] times. A suspect
@@ -480,7 +494,7 @@ impl Formula {
         range: Span,
         scales: Scales,
         budget: &mut usize,
-    ) -> Option<f64> {
+    ) -> Option<Suspect> {
         let mut stack = vec![(lo, hi, 0)];
         while let Some((a, b, depth)) = stack.pop() {
             if *budget == 0 {
@@ -492,10 +506,15 @@ impl Formula {
             }
             let c = 0.5 * (a + b);
             if depth == HALVINGS || c <= a || c >= b {
-                // Its eight evaluations with derivatives cost about as much as this.
+                // Its evaluations with derivatives cost about as much as this.
                 *budget = budget.saturating_sub(GROWTH_TEST_COST * self.nodes);
-                if self.grows_toward(c, b - a, range, scales) {
-                    return Some(c);
+                if self.not_finite_around(c, b - a, range)
+                    || self.grows_toward(c, b - a, range, scales)
+                {
+                    return Some(Suspect::Pole(c));
+                }
+                if let Some(size) = self.jumps_at(c, b - a, range, scales) {
+                    return Some(Suspect::Jump { t: c, size });
                 }
                 continue;
             }
@@ -517,6 +536,44 @@ impl Formula {
         [w, FAR * w, FAR * FAR * w]
             .into_iter()
             .all(|w| self.grows_between(c, w, range, scales))
+    }
+
+    /// Whether the formula's value or slope is not finite at `c` or `c ± w` (inside `range`):
+    /// it cannot be evaluated there, whether or not it grows toward `c` (`(1 + exp(1/u))^(-1)`
+    /// is bounded, but `exp` overflows for small `u > 0` and the quotient's slope is NaN).
+    fn not_finite_around(&self, c: f64, w: f64, (t0, t1): Span) -> bool {
+        [c - w, c, c + w].into_iter().any(|t| {
+            let d = self.derivatives(t.clamp(t0, t1));
+            !(d[0].is_finite() && d[1].is_finite())
+        })
+    }
+
+    /// The size of the formula's jump at `c`, if it jumps: on each of the scales `s = w`,
+    /// `FAR w` and `FAR² w` (those inside `range`, the smallest at least), its value changes
+    /// across `[c − s, c + s]` by more than [`GROWTH`] times what its slopes at both ends
+    /// allow (`2 s` times the larger). By the mean value theorem a continuous formula can only
+    /// do that with a slope inside more than `GROWTH` times its slopes at the ends on every
+    /// scale: a step narrower than `w`, which no mesh resolves either. A kink (`sqrt(u^2)`)
+    /// or an integrable slope (`u log(u^2)`, `sqrt(sqrt(u^2))`) changes by no more than its
+    /// slopes allow.
+    fn jumps_at(&self, c: f64, w: f64, (t0, t1): Span, scales: Scales) -> Option<f64> {
+        let mut size = None;
+        for s in [w, FAR * w, FAR * FAR * w] {
+            let (l, r) = (c - s, c + s);
+            if l < t0 || r > t1 {
+                break;
+            }
+            let (dl, dr) = (self.derivatives(l), self.derivatives(r));
+            let change = (dr[0] - dl[0]).abs();
+            let allowed = 2.0 * s * dl[1].abs().max(dr[1].abs());
+            if !(change.is_finite() && allowed.is_finite())
+                || change <= GROWTH * (allowed + scales.value)
+            {
+                return None;
+            }
+            size.get_or_insert(change);
+        }
+        size
     }
 
     /// Whether the value or the slope at `c ± w` exceeds [`GROWTH`] times its largest at
@@ -960,8 +1017,9 @@ impl Expression {
     /// `log(t - 5)` at `t = 0`); otherwise the first component, in order, that is unbounded
     /// or undefined near a time between two check times ([`Undefined::Near`]:
     /// `1/(t - 2.0001)` with check times at 2 and 2.0049), found by interval arithmetic and
-    /// confirmed by the formula's growth toward it (`Formula::singular_between`), searching
-    /// the check intervals with the largest values and slopes at their ends first.
+    /// confirmed by the formula's growth toward it (`Formula::singular_between`), or that
+    /// jumps there although it stays bounded ([`Undefined::Jump`]: `atan(1/(t - 2.0001))`),
+    /// searching the check intervals with the largest values and slopes at their ends first.
     pub fn check_defined(&self, t0: f64, t1: f64, points: usize) -> Option<Undefined> {
         let grid = check_times(t0, t1, points);
         let mut jets = vec![Vec::with_capacity(grid.len()); self.components.len()];
@@ -999,8 +1057,16 @@ impl Expression {
             let mut budget = ENCLOSURE_BUDGET;
             for k in order {
                 let interval = (grid[k], grid[k + 1]);
-                if let Some(t) = f.singular_between(interval, (t0, t1), scales, &mut budget) {
-                    return Some(Undefined::Near { component: i, t });
+                match f.singular_between(interval, (t0, t1), scales, &mut budget) {
+                    Some(Suspect::Pole(t)) => return Some(Undefined::Near { component: i, t }),
+                    Some(Suspect::Jump { t, size }) => {
+                        return Some(Undefined::Jump {
+                            component: i,
+                            t,
+                            size,
+                        })
+                    }
+                    None => {}
                 }
             }
         }
@@ -1096,6 +1162,16 @@ pub enum Undefined {
         component: usize,
         /// Where, to within about `1e-5` of the interval's length.
         t: f64,
+    },
+    /// The component is bounded near `t` but jumps there, by `size` (a sign or step written
+    /// through a division by zero: `u/sqrt(u^2)`, `atan(1/u)`, `tanh(1/u)` at `u = 0`).
+    Jump {
+        /// 0-based component.
+        component: usize,
+        /// Where, to within about `1e-5` of the interval's length.
+        t: f64,
+        /// `|Ω_d(t⁺) − Ω_d(t⁻)|`, about.
+        size: f64,
     },
 }
 
@@ -1521,6 +1597,62 @@ mod tests {
             "3 cos(0.3 t)",
         ] {
             assert_eq!(where_undefined(text), None, "{text}");
+        }
+    }
+
+    /// Bounded formulas that jump between the check times (signs and steps written through a
+    /// division by zero) are found, with the size of the jump; the kinks and integrable
+    /// slopes beside them are continuous and accepted, and the poles stay poles.
+    #[test]
+    fn jumps_between_check_times_are_found_and_kinks_are_not() {
+        let pi = std::f64::consts::PI;
+        for (text, at, size) in [
+            ("atan(1/(t - 2.0001))", 2.0001, pi),
+            ("(t - 2.0001)/sqrt((t - 2.0001)^2)", 2.0001, 2.0),
+            ("3 + tanh(1/(3.3 - t))", 3.3, 2.0),
+            // Jumps at pi - 2.0001 and at 2.0001, where sin(t) = sin(2.0001): the test asks
+            // for the second (the search takes the intervals of larger slopes first).
+            ("t^2 + 0.5 atan(1/(sin(t) - sin(2.0001)))", 2.0001, 0.5 * pi),
+        ] {
+            match where_undefined(text) {
+                Some(Undefined::Jump {
+                    component: 0,
+                    t,
+                    size: s,
+                }) => {
+                    assert!(
+                        (t - at).abs() < 5e-5,
+                        "{text}: found {t}, the jump is at {at}"
+                    );
+                    assert!(
+                        (s - size).abs() < 1e-3 * size,
+                        "{text}: size {s}, not {size}"
+                    );
+                }
+                other => panic!("{text}: expected a jump, got {other:?}"),
+            }
+        }
+        for text in [
+            "sqrt((t - 2.0001)^2)",
+            "(t - 2.0001) log((t - 2.0001)^2)",
+            "sqrt(sqrt((t - 2.0001)^2))",
+            "tanh((t - 2.0001)/1e-3)",
+            "atan(1/((t - 2.0001)^2 + 1e-6))",
+        ] {
+            assert_eq!(where_undefined(text), None, "{text}");
+        }
+        // Essential singularities stay poles, and so does a bounded step whose evaluation
+        // overflows on one side (exp(1/u) for small u > 0: NaN as evaluated).
+        for (text, at) in [
+            ("sin(1/(t - 3.3))", 3.3),
+            ("(1 + exp(1/(t - 1.7)))^(-1)", 1.7),
+        ] {
+            match where_undefined(text) {
+                Some(Undefined::Near { component: 0, t }) => {
+                    assert!((t - at).abs() < 2e-3, "{text}: found {t}, not {at}");
+                }
+                other => panic!("{text}: expected a pole, got {other:?}"),
+            }
         }
     }
 
