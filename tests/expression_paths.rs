@@ -302,3 +302,26 @@ components = ["{kink}", "1", "1"]
     );
     assert!(gaps[2] < 1e-7, "{gaps:?}");
 }
+
+/// `tan(t)` over `b − a = 1e4`: three poles between two of the 1025 check times. The file
+/// loaded and the solver ran on it until the check times were refined where a formula varies
+/// faster than they do; it is refused now, at a pole.
+#[test]
+fn poles_every_few_time_units_on_a_long_span_are_refused() {
+    let text = problem_with(
+        "kind = \"expression\"\ncomponents = [\"5\", \"tan(t)\", \"0\"]",
+        "[5.0, 0.0, 0.0]",
+    )
+    .replace("fixed = 4.0", "fixed = 10000.0");
+    let e = config::from_toml_str(&text).unwrap_err();
+    let msg = e.to_string();
+    assert_eq!(e.field(), Some("desired.components[1]"), "{msg}");
+    assert!(msg.contains("unbounded near t = "), "{msg}");
+    let at: f64 = msg
+        .split("unbounded near t = ")
+        .nth(1)
+        .and_then(|s| s.split(',').next())
+        .and_then(|s| s.parse().ok())
+        .unwrap_or_else(|| panic!("no time in {msg}"));
+    assert!(at.cos().abs() < 1e-3, "t = {at} is no pole of tan: {msg}");
+}

@@ -436,8 +436,14 @@ impl Node {
 }
 
 /// How many halvings of a check interval [`Formula::singular_between`] makes before it
-/// tests for growth: from the check grid's spacing `h` down to `h / 4096`.
+/// tests for growth: from the check grid's spacing `h` down to `h / 4096`, so that the growth
+/// test's farthest probes are `64 h` from the suspect.
 const HALVINGS: u32 = 12;
+/// The halvings on check times that [`Expression::check_defined`] refined because the
+/// formula varies on their spacing `h`: down to `h / 2^18`, so that the growth test's
+/// probes stay within `h` of the suspect, on the formula's own scale (64 `h` away lies the
+/// next pole of `tan(t)` on `[0, 1e4]`).
+const REFINED_HALVINGS: u32 = HALVINGS + 6;
 /// Probes at `c ± w` and `c ± FAR w` around a suspect `c` found on an interval of width `w`.
 const FAR: f64 = 64.0;
 /// A value or slope more than this times larger at the near probes than at the far ones
@@ -483,7 +489,8 @@ impl Formula {
     /// is the whole interval checked (the probes stay in it).
     ///
     /// Interval arithmetic ([`Node::enclose`]) clears every part of `[lo, hi]` on which the
-    /// formula is bounded; what it cannot clear is halved [`HALVINGS`] times. A suspect
+    /// formula is bounded; what it cannot clear is halved `halvings` times ([`HALVINGS`], or
+    /// [`REFINED_HALVINGS`] on refined check times). A suspect
     /// interval of width `w` left at the end is a singularity when the formula's value or
     /// slope grows toward its midpoint `c` ([`Formula::grows_toward`]). Interval arithmetic alone cannot tell a pole from a
     /// loose enclosure (`sin(t - 1)/(t - 1)` is bounded, but its enclosure on an interval
@@ -493,6 +500,7 @@ impl Formula {
         (lo, hi): Span,
         range: Span,
         scales: Scales,
+        halvings: u32,
         budget: &mut usize,
     ) -> Option<Suspect> {
         let mut stack = vec![(lo, hi, 0)];
@@ -505,7 +513,7 @@ impl Formula {
                 continue;
             }
             let c = 0.5 * (a + b);
-            if depth == HALVINGS || c <= a || c >= b {
+            if depth == halvings || c <= a || c >= b {
                 // Its evaluations with derivatives cost about as much as this.
                 *budget = budget.saturating_sub(GROWTH_TEST_COST * self.nodes);
                 if self.not_finite_around(c, b - a, range)
@@ -1020,18 +1028,41 @@ impl Expression {
     /// confirmed by the formula's growth toward it (`Formula::singular_between`), or that
     /// jumps there although it stays bounded ([`Undefined::Jump`]: `atan(1/(t - 2.0001))`),
     /// searching the check intervals with the largest values and slopes at their ends first.
+    ///
+    /// Where a component varies too fast for the check times (more than a quarter of their
+    /// intervals unresolved, `unresolved_share`: `tan(t)` on `[0, 1e4]`, three poles per
+    /// interval of the 1025 times), the times are doubled, keeping the old ones, until it does
+    /// not, up to [`MAX_CHECK_POINTS`] times and [`CHECK_GRID_BUDGET`] node evaluations: the
+    /// growth test that confirms a pole probes as far as the times' spacing, and beyond the
+    /// next pole it measures nothing.
     pub fn check_defined(&self, t0: f64, t1: f64, points: usize) -> Option<Undefined> {
-        let grid = check_times(t0, t1, points);
-        let mut jets = vec![Vec::with_capacity(grid.len()); self.components.len()];
-        for &t in &grid {
-            for (i, f) in self.components.iter().enumerate() {
-                let d = f.derivatives(t);
-                if d.iter().any(|v| !v.is_finite()) {
-                    return Some(Undefined::At { component: i, t });
+        let nodes: usize = self.components.iter().map(|f| f.nodes).sum();
+        let mut points = points.max(2);
+        let first = points;
+        let (grid, jets) = loop {
+            let grid = check_times(t0, t1, points);
+            let mut jets = vec![Vec::with_capacity(grid.len()); self.components.len()];
+            for &t in &grid {
+                for (i, f) in self.components.iter().enumerate() {
+                    let d = f.derivatives(t);
+                    if d.iter().any(|v| !v.is_finite()) {
+                        return Some(Undefined::At { component: i, t });
+                    }
+                    jets[i].push(d);
                 }
-                jets[i].push(d);
             }
-        }
+            let finer = 2 * points - 1;
+            let resolved = jets
+                .iter()
+                .all(|j| unresolved_share(&grid, j) <= MAX_UNRESOLVED_SHARE);
+            if resolved
+                || finer > MAX_CHECK_POINTS
+                || finer.saturating_mul(nodes) > CHECK_GRID_BUDGET
+            {
+                break (grid, jets);
+            }
+            points = finer;
+        };
         let median = |mut v: Vec<f64>| {
             v.sort_by(f64::total_cmp);
             v[v.len() / 2]
@@ -1057,7 +1088,12 @@ impl Expression {
             let mut budget = ENCLOSURE_BUDGET;
             for k in order {
                 let interval = (grid[k], grid[k + 1]);
-                match f.singular_between(interval, (t0, t1), scales, &mut budget) {
+                let halvings = if grid.len() > first {
+                    REFINED_HALVINGS
+                } else {
+                    HALVINGS
+                };
+                match f.singular_between(interval, (t0, t1), scales, halvings, &mut budget) {
                     Some(Suspect::Pole(t)) => return Some(Undefined::Near { component: i, t }),
                     Some(Suspect::Jump { t, size }) => {
                         return Some(Undefined::Jump {
@@ -1128,6 +1164,41 @@ impl Expression {
         }
         None
     }
+}
+
+/// Most check times [`Expression::check_defined`] refines to.
+pub const MAX_CHECK_POINTS: usize = 131_073;
+
+/// Work allowed for the check times' jets in [`Expression::check_defined`], in evaluations of
+/// one node of the formulas' syntax trees (about 1 s for the largest formulas).
+pub const CHECK_GRID_BUDGET: usize = 50_000_000;
+
+/// Share of unresolved check intervals (`unresolved_share`) above which
+/// [`Expression::check_defined`] doubles its check times: a few poles or jumps leave a few
+/// intervals unresolved, a formula that varies faster than the times leaves most.
+const MAX_UNRESOLVED_SHARE: f64 = 0.25;
+
+/// The share of the check intervals `[t_k, t_{k+1}]` on which one formula, with the jets
+/// `jets` at the times `grid`, is unresolved: the cubic Taylor polynomial from `t_k` misses
+/// the value at `t_{k+1}` by more than a tenth of `|f(t_k)| + |f(t_{k+1})|` plus the median
+/// `|f|`. On a resolved interval the miss is the fourth-order remainder.
+fn unresolved_share(grid: &[f64], jets: &[[f64; 4]]) -> f64 {
+    let mut values: Vec<f64> = jets.iter().map(|d| d[0].abs()).collect();
+    values.sort_by(f64::total_cmp);
+    let typical = values[values.len() / 2];
+    let unresolved = grid
+        .windows(2)
+        .zip(jets.windows(2))
+        .filter(|(t, d)| {
+            let h = t[1] - t[0];
+            let [f, f1, f2, f3] = d[0];
+            let predicted = f + h * (f1 + h * (f2 / 2.0 + h * f3 / 6.0));
+            let miss = (predicted - d[1][0]).abs();
+            // The jets are finite (checked before): a NaN cannot hide here.
+            miss > 0.1 * (f.abs() + d[1][0].abs() + typical)
+        })
+        .count();
+    unresolved as f64 / (grid.len() - 1) as f64
 }
 
 /// `points` (at least 2) uniform times of `[t0, t1]`, both ends exactly.
@@ -1598,6 +1669,52 @@ mod tests {
         ] {
             assert_eq!(where_undefined(text), None, "{text}");
         }
+    }
+
+    /// On a long span the 1025 check times are too few for a fast formula: `tan(t)` on
+    /// `[0, 1e4]` has three poles between two of them, and the growth test, whose probes
+    /// reached 64 times the times' spacing, measured across them and missed every pole (the
+    /// file loaded and the solver ran). The times are refined until the formula is resolved
+    /// between them, and the probes stay within one spacing; fast bounded formulas are still
+    /// accepted.
+    #[test]
+    fn poles_many_per_check_interval_are_found_on_long_spans() {
+        let undefined = |text: &str, t1: f64| {
+            Expression::parse(&[text.to_string()], &[])
+                .unwrap()
+                .check_defined(0.0, t1, 1025)
+        };
+        for (text, t1) in [
+            ("1 + tan(t)", 1e4),
+            ("1/sin(t + 0.5)", 1e4),
+            ("2 + tan(40 t)", 500.0),
+            ("1/sin(100 t + 0.5)", 5.0),
+        ] {
+            match undefined(text, t1) {
+                Some(Undefined::Near { component: 0, t }) => {
+                    // A pole: cos(w t) or sin(w t + 0.5) vanishes there.
+                    let near_pole = [
+                        t.cos(),
+                        (t + 0.5).sin(),
+                        (40.0 * t).cos(),
+                        (100.0 * t + 0.5).sin(),
+                    ]
+                    .iter()
+                    .any(|v| v.abs() < 1e-3);
+                    assert!(near_pole, "{text}: {t} is no pole");
+                }
+                other => panic!("{text}: expected a pole, got {other:?}"),
+            }
+        }
+        for (text, t1) in [
+            ("3 cos(0.3 t)", 1e4),
+            ("sin(40 t)", 500.0),
+            ("1e6 + sin(t)", 1e6),
+        ] {
+            assert_eq!(undefined(text, t1), None, "{text}");
+        }
+        // Still unresolved at the most check times: searched as before, not refused for it.
+        assert_eq!(undefined("sin(t)", 1e9), None);
     }
 
     /// Bounded formulas that jump between the check times (signs and steps written through a
