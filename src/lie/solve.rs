@@ -2368,12 +2368,40 @@ struct TimeScanFinding {
     finding: String,
 }
 
+/// A sample of the value-function scan with its verified solution, if any.
+type Sampled<M> = (TimeSample, Option<LieSolution<M>>);
+
+/// What one side of the value-function scan ([`time_scan`]) found: the samples it reached
+/// (by index of [`TIME_SCAN_FACTORS`]), where its continuation stopped and why, what its last
+/// solution showed there, and the samples past the factors' end.
+struct SideScan<M: Model> {
+    found: Vec<(usize, Sampled<M>)>,
+    ended: Option<(usize, String)>,
+    edge: Option<String>,
+    beyond: Vec<Sampled<M>>,
+}
+
+impl<M: Model> Default for SideScan<M> {
+    fn default() -> Self {
+        Self {
+            found: Vec::new(),
+            ended: None,
+            edge: None,
+            beyond: Vec::new(),
+        }
+    }
+}
+
 /// The value-function route of a free-time problem whose time stage stopped: solve the
 /// fixed-time problems `T = f (b_p − a)`, `f` in [`TIME_SCAN_FACTORS`], at the target weights;
 /// if the verified costs `J*(T)` have an interior minimum, solve the free-time problem from
 /// the fixed-time solution there (the time weight at its target, `T` unknown), else say where
 /// the optimal time lies (below the shortest or above the longest `T` solved, with the samples
 /// as evidence).
+///
+/// The continuations toward shorter and longer `T` run on two threads, and the samples they
+/// do not reach, each from its own start, on as many threads as the machine has cores: the
+/// samples are independent, so the result is that of one after the other.
 fn time_scan<M: Model>(
     problem: &Problem<M>,
     options: &SolveOptions,
@@ -2465,28 +2493,38 @@ fn time_scan<M: Model>(
         let (sample, sol) = own(t_p);
         if let Some(sol) = &sol {
             found[k] = Some((sample.clone(), None));
-            let down: Vec<usize> = (0..k).rev().collect();
-            let up: Vec<usize> = (k + 1..n).collect();
-            for (side, indices) in [down, up].into_iter().enumerate() {
+            let centre_cost = sample.cost;
+            // One side of the scan: the continuation from b_p through `indices`, then past
+            // their end while J* still falls.
+            let side_scan = |side: usize, indices: Vec<usize>| {
+                let mut scan = SideScan::<M>::default();
                 let mut h = horizon_homotopy(problem, options, sol);
                 let mut completed = true;
                 for &i in &indices {
                     if let Err(e) = h.horizon_stage(TIME_SCAN_FACTORS[i] * t_p, options) {
-                        edge[side] = horizon_edge::<M>(&e);
-                        ended.push((i, e.to_string()));
+                        scan.edge = horizon_edge::<M>(&e);
+                        scan.ended = Some((i, e.to_string()));
                         completed = false;
                         break;
                     }
-                    found[i] = Some(sample_here(&h));
+                    scan.found.push((i, sample_here(&h)));
                 }
                 // Past the end while J* still falls toward it: the optimal time may lie
                 // beyond the factors; continue T (no own starts) until J* rises again or the
                 // branch stops, which the finding then names.
-                let cost_at = |i: usize| found[i].as_ref().and_then(|f| f.0.cost);
+                let cost_at = |i: usize| {
+                    if i == k {
+                        return centre_cost;
+                    }
+                    scan.found
+                        .iter()
+                        .find(|(j, _)| *j == i)
+                        .and_then(|(_, f)| f.0.cost)
+                };
                 let (end, before) = match indices.as_slice() {
                     [.., before, end] => (*end, *before),
                     [end] => (*end, k),
-                    [] => continue,
+                    [] => return scan,
                 };
                 let mut last = match (cost_at(end), cost_at(before)) {
                     (Some(j_end), Some(j_before)) if completed && j_end < j_before => Some(j_end),
@@ -2501,16 +2539,72 @@ fn time_scan<M: Model>(
                         end_span * f
                     };
                     if let Err(e) = h.horizon_stage(span, options) {
-                        edge[side] = horizon_edge::<M>(&e);
+                        scan.edge = horizon_edge::<M>(&e);
                         break;
                     }
                     let (sample, sol) = sample_here(&h);
                     last = sample.cost.filter(|j| *j < previous);
-                    beyond[side].push((sample, sol));
+                    scan.beyond.push((sample, sol));
                 }
+                scan
+            };
+            // The two sides are independent: each continues from the solution at b_p, on its
+            // own thread (the results are those of one after the other).
+            let down: Vec<usize> = (0..k).rev().collect();
+            let up: Vec<usize> = (k + 1..n).collect();
+            let sides: Vec<SideScan<M>> = std::thread::scope(|scope| {
+                let side_scan = &side_scan;
+                let handles: Vec<_> = [down, up]
+                    .into_iter()
+                    .enumerate()
+                    .map(|(side, indices)| scope.spawn(move || side_scan(side, indices)))
+                    .collect();
+                handles
+                    .into_iter()
+                    .map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+                    .collect()
+            });
+            for (side, scan) in sides.into_iter().enumerate() {
+                for (i, got) in scan.found {
+                    found[i] = Some(got);
+                }
+                ended.extend(scan.ended);
+                edge[side] = scan.edge;
+                beyond[side] = scan.beyond;
             }
         }
         found[k] = Some((sample, sol));
+    }
+    // The samples the continuation did not reach, each solved from its own start, on as many
+    // threads as the machine has cores (each taking the next).
+    let missing: Vec<usize> = (0..n).filter(|&i| found[i].is_none()).collect();
+    let workers = std::thread::available_parallelism()
+        .map_or(1, |c| c.get())
+        .clamp(1, missing.len().max(1));
+    let next = std::sync::atomic::AtomicUsize::new(0);
+    let solved_own: Vec<(usize, Sampled<M>)> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..workers)
+            .map(|_| {
+                let (missing, next, own) = (&missing, &next, &own);
+                scope.spawn(move || {
+                    let mut done = Vec::new();
+                    loop {
+                        let j = next.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+                        let Some(&i) = missing.get(j) else {
+                            break done;
+                        };
+                        done.push((i, own(TIME_SCAN_FACTORS[i] * t_p)));
+                    }
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().unwrap_or_else(|e| std::panic::resume_unwind(e)))
+            .collect()
+    });
+    for (i, got) in solved_own {
+        found[i] = Some(got);
     }
     let mut samples = Vec::new();
     let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
@@ -2520,6 +2614,7 @@ fn time_scan<M: Model>(
         .zip(found)
         .enumerate()
         .map(|(i, (f, got))| {
+            // Every sample was solved above; a missing one is solved here as a fallback.
             let (mut sample, sol) = got.unwrap_or_else(|| own(f * t_p));
             if let (Some(why), Some((_, ended))) =
                 (&mut sample.stopped, ended.iter().find(|e| e.0 == i))
