@@ -2609,13 +2609,12 @@ fn time_scan<M: Model>(
     let mut samples = Vec::new();
     let mut solved: Vec<(f64, f64, LieSolution<M>)> = Vec::new();
     let [shorter, longer] = beyond;
-    let main = TIME_SCAN_FACTORS
-        .iter()
-        .zip(found)
+    // Every factor has its sample now (continued, or from its own start above).
+    let main = found
+        .into_iter()
         .enumerate()
-        .map(|(i, (f, got))| {
-            // Every sample was solved above; a missing one is solved here as a fallback.
-            let (mut sample, sol) = got.unwrap_or_else(|| own(f * t_p));
+        .filter_map(|(i, got)| got.map(|g| (i, g)))
+        .map(|(i, (mut sample, sol))| {
             if let (Some(why), Some((_, ended))) =
                 (&mut sample.stopped, ended.iter().find(|e| e.0 == i))
             {
