@@ -271,7 +271,7 @@ pub fn transcription_on<'a, M: Model>(
 
 /// The start condition `⟨Ω_a, ξ(a)⟩ = γ` (linear in `ξ(a)` once `Ω(a) = Ω_a`), for a constraint
 /// value `γ` that does not depend on `ξ`.
-fn start_level<M: Model>(p: &Problem<M>) -> LinearCondition {
+pub(super) fn start_level<M: Model>(p: &Problem<M>) -> LinearCondition {
     LinearCondition {
         coefficients: M::OMEGA.map(|i| (M::XI.start + i, p.omega_a[i])).collect(),
         value: crate::model::constant_constraint_value::<M>(p.params()),

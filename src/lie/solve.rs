@@ -2251,6 +2251,39 @@ fn direct_finding<M: Model>(
     (finding, found)
 }
 
+/// The BVP from the direct minimum `start`: with `κ` recovered from the SQP's multipliers,
+/// and when that does not converge, with `κ = 0`. Neither is right everywhere: corpus
+/// problem fast-198's BVP converges only with `κ` recovered (session 17), fast-199's only
+/// with `κ = 0` (its `κ` is at most 1.2e-5 at the solution; the fit gives up to 2.0e-5 on
+/// 100 intervals). The first error is returned when both fail.
+fn direct_warm_solve<M: Model>(
+    problem: &Problem<M>,
+    options: &SolveOptions,
+    start: &DirectStart,
+    events: &mut dyn FnMut(&Event),
+) -> Result<LieSolution<M>, LieSolveError<M>> {
+    let first = warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events);
+    match first {
+        Err(e) if start.kappa_fitted && !options.stopped() => {
+            let mut zero = start.warm.clone();
+            for y in zero.states.chunks_exact_mut(M::N_STATE) {
+                y[M::KAPPA].fill(0.0);
+            }
+            warm_solve(problem, options, &zero, WarmOrigin::Direct, events).map_err(|_| e)
+        }
+        first => first,
+    }
+}
+
+/// Which costates [`direct_warm_solve`] tried, for messages.
+fn kappa_tried(start: &DirectStart) -> &'static str {
+    if start.kappa_fitted {
+        " (kappa fitted to the multipliers, and kappa = 0)"
+    } else {
+        " (kappa = 0)"
+    }
+}
+
 /// One attempt of [`direct_route`] on `intervals` intervals in the transcription `form`: the
 /// verified solution and its cost. When the BVP does not converge from the SQP's minimum, the
 /// same minimum refined to a [`DIRECT_RETRY_FACTOR`] times finer mesh (a few SQP iterations
@@ -2274,13 +2307,15 @@ fn direct_attempt<M: Model>(
             *stop = Some(Box::new(e));
         }
     };
-    let mut solved = match warm_solve(problem, options, &start.warm, WarmOrigin::Direct, events) {
+    let mut solved = match direct_warm_solve(problem, options, &start, events) {
         Ok(sol) => Ok(sol),
         Err(e) => {
             let why = format!(
                 "the SQP found a minimum of the transcribed problem (cost {:.6e}, min |xi| \
-                 {:.2e}), but the BVP from it stopped: {e}",
-                start.cost, start.min_xi
+                 {:.2e}), but the BVP from it{} stopped: {e}",
+                start.cost,
+                start.min_xi,
+                kappa_tried(&start)
             );
             keep_stop(e, &mut stop);
             Err(why)
@@ -2294,13 +2329,14 @@ fn direct_attempt<M: Model>(
         }
         match super::direct::refine_start(problem, &start, finer, form) {
             Ok(refined) => {
-                match warm_solve(problem, options, &refined.warm, WarmOrigin::Direct, events) {
+                match direct_warm_solve(problem, options, &refined, events) {
                     Ok(sol) => solved = Ok(sol),
                     Err(e) => {
                         why.push_str(&format!(
-                            "; refined to {finer} intervals (cost {:.6e}), the BVP from it \
+                            "; refined to {finer} intervals (cost {:.6e}), the BVP from it{} \
                              stopped: {e}",
-                            refined.cost
+                            refined.cost,
+                            kappa_tried(&refined)
                         ));
                         keep_stop(e, &mut stop);
                     }
