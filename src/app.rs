@@ -533,11 +533,14 @@ fn solve_case(
             } else {
                 String::new()
             };
-            s.set_status(&CaseStatus::Partial(format!(
-                "stage '{stage}' stopped{at}: {reason}"
-            )));
+            let stop = format!("stage '{stage}' stopped{at}: {reason}");
+            s.set_status(&CaseStatus::Partial(stop.clone()));
             let (generic, found) = (&partial.generic, partial.generic.collapse.as_ref());
-            let infimum = lie::infimum_output(&generic.problem, found, output.points, &mut s.extra);
+            let infimum = lie::infimum_output(&generic.problem, found, output.points, &mut s.extra)
+                .map(|infimum| {
+                    s.set_status(&infimum.status(&stop));
+                    infimum.text
+                });
             let pending = PendingOutputs {
                 name: name.to_string(),
                 trajectory: Some((*partial, Outputs::Partial)),
@@ -568,7 +571,11 @@ fn solve_case(
             ) = (&e, problem.to_generic())
             {
                 s.extra.insert("collapse".into(), serde_json::json!(found));
-                infimum = lie::infimum_output(&generic, Some(found), output.points, &mut s.extra);
+                infimum = lie::infimum_output(&generic, Some(found), output.points, &mut s.extra)
+                    .map(|infimum| {
+                        s.set_status(&infimum.status(&e.to_string()));
+                        infimum.text
+                    });
             }
             let pending = PendingOutputs {
                 name: name.to_string(),

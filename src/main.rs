@@ -7,7 +7,7 @@
 //! | 0 | success: every case converged and verified / certified / rank dim M on M (4 for so3) |
 //! | 1 | error: a bad problem file or argument, an unwritable or busy output; nothing was solved, or the run stopped |
 //! | 2 | usage: the command line itself is malformed (clap) |
-//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M or found no state on M to test |
+//! | 3 | the run completed and wrote its results, but the answer is negative: some case did not converge, has no minimizer (summary.json: `no_minimizer`, an ε-optimal control written) or failed its verification, is not certified as a local minimum, or the rank test is not dim M on M or found no state on M to test |
 //! | 128 + n | stopped by signal n (130: SIGINT, 143: SIGTERM, 129: SIGHUP); temporary files removed, the output directory keeps its `INCOMPLETE` mark |
 //!
 //! Nothing here panics on a closed standard output or error (`suslov … | head -1`): text
@@ -733,7 +733,22 @@ fn solved(
             if summary.cases.iter().all(|c| c.status == "converged") {
                 Outcome::Success
             } else {
-                say!("not every case converged (see summary.json)");
+                let none = summary
+                    .cases
+                    .iter()
+                    .filter(|c| c.status_code == suslov::report::StatusCode::NoMinimizer)
+                    .count();
+                if none > 0 {
+                    say!(
+                        "not every case converged: {none} of {} ha{} no minimizer, and an \
+                         epsilon-optimal control in {} (see summary.json)",
+                        summary.cases.len(),
+                        if none == 1 { "s" } else { "ve" },
+                        suslov::app::lie::INFIMUM_FILE
+                    );
+                } else {
+                    say!("not every case converged (see summary.json)");
+                }
                 Outcome::Negative
             }
         }

@@ -118,6 +118,15 @@ fn slice_has_no_false_convergence_and_no_unexplained_failure() {
                     _ => {}
                 }
             }
+            // The classification has checked the written ε-optimal control independently.
+            Verdict::NoMinimizer { reason } => {
+                assert!(
+                    reason.contains("trajectory.infimum.csv"),
+                    "{}: {reason}",
+                    p.id
+                );
+                assert!(o.check.as_ref().is_some_and(|c| c.passed()), "{}", p.id);
+            }
             Verdict::Unexplained(m) => panic!("{}: unexplained failure: {m}\n{}", p.id, p.toml),
             Verdict::FalseConverged(f) => {
                 panic!("{}: false convergence: {f:?}\n{}", p.id, p.toml)

@@ -195,6 +195,24 @@ fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
         "{:?}",
         case.extra
     );
+    // The case says so: no minimizer, the file and its cost first, then where the homotopy
+    // stopped; the partial solution is written as for any stop.
+    assert_eq!(
+        case.status_code,
+        suslov::report::StatusCode::NoMinimizer,
+        "{}",
+        case.status
+    );
+    assert!(
+        case.status.starts_with(
+            "no minimizer: the infimum is approached as xi -> 0, where Suslov's equations are \
+             singular; trajectory.infimum.csv holds an admissible control with |xi| = 1e-6 over \
+             b - a = 1.905 of cost J = 44.2711"
+        ) && case.status.contains("stage '"),
+        "{}",
+        case.status
+    );
+    assert!(out.join("trajectory.partial.csv").is_file());
     let text = std::fs::read_to_string(out.join("trajectory.infimum.csv")).unwrap();
     let mut lines = text.lines();
     let header: Vec<&str> = lines.next().unwrap().split(',').collect();
@@ -303,6 +321,10 @@ fn a_tie_with_the_relaxed_minimum_still_writes_the_eps_optimal_control() {
         rel(record["cost"].as_f64().unwrap(), 0.3563462474) < 1e-8,
         "{record}"
     );
+    assert_eq!(
+        summary.cases[0].status_code,
+        suslov::report::StatusCode::NoMinimizer
+    );
     let check = corpus::infimum_check(&p.toml, &work, &out).expect("written");
     assert!(check.passed(), "{:?}", check.failures);
 }
@@ -311,7 +333,8 @@ fn a_tie_with_the_relaxed_minimum_still_writes_the_eps_optimal_control() {
 /// no partial solution; the direct method's minimum collapses (tests/routes.rs). The failed
 /// case still writes the ε-optimal control, the relaxed minimum's motion driven by a vanishing
 /// ξ (cost 85.363837 when measured, the relaxed minimum 85.3638370 on 200 intervals), and the
-/// corpus's independent check accepts it. The case stays failed: it has no extremal.
+/// corpus's independent check accepts it. The case has no extremal and says it has no
+/// minimizer.
 #[test]
 fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
     let file =
@@ -322,7 +345,13 @@ fn a_failed_start_whose_minimizers_collapse_writes_the_eps_optimal_control() {
     let case = &summary.cases[0];
     assert_eq!(
         case.status_code,
-        suslov::report::StatusCode::Failed,
+        suslov::report::StatusCode::NoMinimizer,
+        "{}",
+        case.status
+    );
+    assert!(
+        case.status.starts_with("no minimizer: ")
+            && case.status.contains("cannot build the analytic start"),
         "{}",
         case.status
     );

@@ -314,6 +314,27 @@ fn summary_json_round_trips_with_all_fields_and_null_for_non_finite() {
     assert_eq!(fs::read_dir(&d).unwrap().count(), 1);
 }
 
+/// Every status kind has its own code in `summary.json`, and the text starts with its name.
+#[test]
+fn status_codes_and_texts_go_together() {
+    use suslov::report::{CaseStatus, CaseSummary, StatusCode};
+    let cases = [
+        (CaseStatus::Converged, "converged", "converged"),
+        (CaseStatus::Unverified("x".into()), "unverified", "unverified: x"),
+        (CaseStatus::Partial("x".into()), "partial", "partial: x"),
+        (CaseStatus::NoMinimizer("x".into()), "no_minimizer", "no minimizer: x"),
+        (CaseStatus::Failed("x".into()), "failed", "failed: x"),
+    ];
+    for (status, code, text) in cases {
+        let mut c = CaseSummary::failed("c", "first", "so3", "");
+        c.set_status(&status);
+        assert_eq!(c.status, text);
+        assert_eq!(serde_json::to_value(c.status_code).unwrap(), code);
+        let back: StatusCode = serde_json::from_value(serde_json::json!(code)).unwrap();
+        assert_eq!(back, status.code());
+    }
+}
+
 #[test]
 fn atomic_write_replaces_and_leaves_no_temp_file() {
     let d = scratch("atomic");

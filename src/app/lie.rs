@@ -160,11 +160,11 @@ pub(super) fn infimum_output<M: Model>(
     found: Option<&lie::collapse::CollapseEvidence>,
     points: usize,
     extra: &mut serde_json::Map<String, serde_json::Value>,
-) -> Option<String> {
+) -> Option<InfimumOutput> {
     match infimum_csv(problem, found?, points)? {
         Ok((text, control)) => {
             extra.insert("infimum_trajectory".into(), infimum_record(&control));
-            Some(text)
+            Some(InfimumOutput { text, control })
         }
         Err(e) => {
             extra.insert(
@@ -173,6 +173,30 @@ pub(super) fn infimum_output<M: Model>(
             );
             None
         }
+    }
+}
+
+/// A stop's ε-optimal control: [`INFIMUM_FILE`]'s text and the control it holds.
+pub(super) struct InfimumOutput {
+    /// The file's text.
+    pub text: String,
+    /// The control.
+    pub control: lie::collapse::CollapsedControl,
+}
+
+impl InfimumOutput {
+    /// The case's status once this file is written: the problem has no minimizer (its
+    /// infimum is approached as `ξ → 0`); `stop` says where the homotopy stopped and why.
+    pub fn status(&self, stop: &str) -> CaseStatus {
+        let c = &self.control;
+        CaseStatus::NoMinimizer(format!(
+            "the infimum is approached as xi -> 0, where Suslov's equations are singular; \
+             {INFIMUM_FILE} holds an admissible control with |xi| = {:e} over b - a = {} \
+             of cost J = {}; {stop}",
+            c.eps,
+            crate::echo::Num(c.span),
+            crate::echo::Num(c.cost)
+        ))
     }
 }
 
@@ -658,9 +682,8 @@ pub fn run_model_solve<M: Model>(
             } else {
                 String::new()
             };
-            c.set_status(&CaseStatus::Partial(format!(
-                "stage '{stage}' stopped{at}: {reason}"
-            )));
+            let stop = format!("stage '{stage}' stopped{at}: {reason}");
+            c.set_status(&CaseStatus::Partial(stop.clone()));
             let (names, columns) = trajectory_columns(&partial, output.points);
             write(
                 &mut dir,
@@ -678,9 +701,11 @@ pub fn run_model_solve<M: Model>(
                 collocation_csv(&partial).as_bytes(),
             )?;
             let found = partial.collapse.as_ref();
-            if let Some(text) = infimum_output(&partial.problem, found, output.points, &mut c.extra)
+            if let Some(infimum) =
+                infimum_output(&partial.problem, found, output.points, &mut c.extra)
             {
-                write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
+                write(&mut dir, INFIMUM_FILE, infimum.text.as_bytes())?;
+                c.set_status(&infimum.status(&stop));
             }
             c
         }
@@ -699,10 +724,11 @@ pub fn run_model_solve<M: Model>(
             } = &e
             {
                 c.extra.insert("collapse".into(), serde_json::json!(found));
-                if let Some(text) =
+                if let Some(infimum) =
                     infimum_output(&problem, Some(found), output.points, &mut c.extra)
                 {
-                    write(&mut dir, INFIMUM_FILE, text.as_bytes())?;
+                    write(&mut dir, INFIMUM_FILE, infimum.text.as_bytes())?;
+                    c.set_status(&infimum.status(&e.to_string()));
                 }
             }
             c

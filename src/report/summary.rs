@@ -54,6 +54,11 @@ pub enum StatusCode {
     /// A homotopy stage stopped; the case holds the last converged point (`status` says
     /// where and why).
     Partial,
+    /// The problem has no minimizer: its infimum is approached by controls whose `ξ`
+    /// vanishes, and `trajectory.infimum.csv` holds an admissible ε-optimal control, its cost
+    /// in `extra.infimum_trajectory` (`status` gives the evidence and where the homotopy
+    /// stopped; the case's numbers are those of the last converged point, if any).
+    NoMinimizer,
     /// No solution at all (`status` says why).
     #[default]
     Failed,
@@ -115,7 +120,9 @@ pub struct CaseSummary {
     pub status_code: StatusCode,
     /// The [`CaseStatus`] as text: `"converged"` (the solve succeeded and every check of
     /// `verification` passed), `"unverified: <check> = <value> exceeds <threshold> (…)"`,
-    /// `"partial: <reason>"` when the case stopped early, or `"failed: <reason>"`.
+    /// `"partial: <reason>"` when the case stopped early, `"no minimizer: <evidence>"` when
+    /// it stopped because the problem has none (an ε-optimal control is written), or
+    /// `"failed: <reason>"`.
     pub status: String,
     /// The a-posteriori checks the status rests on (absent when there was no solution).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -182,6 +189,8 @@ pub enum CaseStatus {
     Unverified(String),
     /// A homotopy stage stopped; the case holds the last converged point.
     Partial(String),
+    /// No minimizer; an ε-optimal control is written ([`StatusCode::NoMinimizer`]).
+    NoMinimizer(String),
     /// No solution at all.
     Failed(String),
 }
@@ -193,6 +202,7 @@ impl CaseStatus {
             Self::Converged => StatusCode::Converged,
             Self::Unverified(_) => StatusCode::Unverified,
             Self::Partial(_) => StatusCode::Partial,
+            Self::NoMinimizer(_) => StatusCode::NoMinimizer,
             Self::Failed(_) => StatusCode::Failed,
         }
     }
@@ -240,12 +250,13 @@ impl CaseSummary {
 }
 
 impl std::fmt::Display for CaseStatus {
-    /// `converged`, `unverified: …`, `partial: …` or `failed: …`.
+    /// `converged`, `unverified: …`, `partial: …`, `no minimizer: …` or `failed: …`.
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         match self {
             Self::Converged => f.write_str("converged"),
             Self::Unverified(r) => write!(f, "unverified: {r}"),
             Self::Partial(r) => write!(f, "partial: {r}"),
+            Self::NoMinimizer(r) => write!(f, "no minimizer: {r}"),
             Self::Failed(r) => write!(f, "failed: {r}"),
         }
     }

@@ -792,9 +792,13 @@ pub enum Verdict {
     /// Stopped with a reason: `key` groups the reasons (the stage name, `start`, or the failed
     /// check of an `unverified` solution), `reason` is the tool's text.
     Explained { key: String, reason: String },
+    /// `no minimizer` in the summary (the infimum is approached as ξ → 0), and the written
+    /// ε-optimal control `trajectory.infimum.csv` passes the independent check.
+    NoMinimizer { reason: String },
     /// An error of `run_solve`, a panic, a timeout, a missing or inconsistent summary.
     Unexplained(String),
-    /// `converged` in the summary, but the independent check failed.
+    /// `converged` (or `no minimizer`) in the summary, but the independent check of what it
+    /// wrote (`trajectory.csv`, or `trajectory.infimum.csv`) failed.
     FalseConverged(Vec<String>),
 }
 
@@ -803,6 +807,7 @@ impl Verdict {
         match self {
             Verdict::Solved => "solved",
             Verdict::Explained { .. } => "explained",
+            Verdict::NoMinimizer { .. } => "no minimizer",
             Verdict::Unexplained(_) => "unexplained",
             Verdict::FalseConverged(_) => "FALSE-CONVERGED",
         }
@@ -994,6 +999,30 @@ pub fn classify(
             (Verdict::Solved, Some(check))
         } else {
             (Verdict::FalseConverged(check.failures.clone()), Some(check))
+        };
+    }
+    if let Some(reason) = status.strip_prefix("no minimizer: ") {
+        // The claim rests on the ε-optimal control: it must be written, and admissible by
+        // the independent check.
+        if !exists("trajectory.infimum.csv") {
+            return bad("status no minimizer but no trajectory.infimum.csv".into());
+        }
+        let (check, _) = match independent(problem_toml, problem_dir, out, "trajectory.infimum.csv")
+        {
+            Ok(c) => c,
+            Err(e) => return bad(e),
+        };
+        return if check.passed() {
+            (
+                Verdict::NoMinimizer {
+                    reason: reason.into(),
+                },
+                Some(check),
+            )
+        } else {
+            let mut failures = vec!["no minimizer, but trajectory.infimum.csv fails".to_string()];
+            failures.extend(check.failures.iter().cloned());
+            (Verdict::FalseConverged(failures), Some(check))
         };
     }
     if let Some(reason) = status.strip_prefix("partial: ") {
