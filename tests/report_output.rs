@@ -320,9 +320,17 @@ fn status_codes_and_texts_go_together() {
     use suslov::report::{CaseStatus, CaseSummary, StatusCode};
     let cases = [
         (CaseStatus::Converged, "converged", "converged"),
-        (CaseStatus::Unverified("x".into()), "unverified", "unverified: x"),
+        (
+            CaseStatus::Unverified("x".into()),
+            "unverified",
+            "unverified: x",
+        ),
         (CaseStatus::Partial("x".into()), "partial", "partial: x"),
-        (CaseStatus::NoMinimizer("x".into()), "no_minimizer", "no minimizer: x"),
+        (
+            CaseStatus::NoMinimizer("x".into()),
+            "no_minimizer",
+            "no minimizer: x",
+        ),
         (CaseStatus::Failed("x".into()), "failed", "failed: x"),
     ];
     for (status, code, text) in cases {
