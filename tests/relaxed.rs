@@ -434,3 +434,44 @@ fn a_cheaper_direct_minimum_withholds_the_eps_optimal_claim() {
         assert_eq!(same.sentence, evidence.sentence);
     }
 }
+
+/// The command line on a problem without a minimizer (corpus problem fast-019, free b, γ = 0:
+/// its infimum is approached as ξ → 0 over b − a = 0.32, cost 0.85498 when measured): exit
+/// status 3, the count of such cases on standard error, `no_minimizer` in `summary.json`, and
+/// the ε-optimal control written next to the partial solution.
+#[test]
+fn the_command_line_says_when_a_problem_has_no_minimizer() {
+    let all = corpus::generate(corpus::DEFAULT_N, corpus::SEED);
+    let p = all.iter().find(|p| p.id == "fast-019").unwrap();
+    let work = dir().join("fast-019-cli");
+    let _ = std::fs::remove_dir_all(&work);
+    let file = corpus::write_problem(p, &work).unwrap();
+    let out = work.join("out");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_suslov"))
+        .arg("solve")
+        .arg(&file)
+        .arg("--out")
+        .arg(&out)
+        .output()
+        .expect("the binary runs");
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(3), "{stderr}");
+    assert!(
+        stderr.contains(
+            "not every case converged: 1 of 1 has no minimizer, and an epsilon-optimal control \
+             in trajectory.infimum.csv"
+        ),
+        "{stderr}"
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("summary.json")).unwrap()).unwrap();
+    let case = &summary["cases"][0];
+    assert_eq!(case["status_code"], "no_minimizer", "{}", case["status"]);
+    let cost = case["extra"]["infimum_trajectory"]["cost"]
+        .as_f64()
+        .unwrap();
+    assert!(rel(cost, 0.8549803251) < 1e-6, "{cost}");
+    assert!(out.join("trajectory.partial.csv").is_file());
+    let check = corpus::infimum_check(&p.toml, &work, &out).expect("written");
+    assert!(check.passed(), "{:?}", check.failures);
+}
