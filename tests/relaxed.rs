@@ -309,12 +309,7 @@ fn a_stop_whose_infimum_is_not_attained_writes_the_eps_optimal_control() {
 /// the ε-optimal control is written all the same, and passes the independent check.
 #[test]
 fn a_tie_with_the_relaxed_minimum_still_writes_the_eps_optimal_control() {
-    let all = corpus::generate(corpus::DEFAULT_N, corpus::SEED);
-    let p = all.iter().find(|p| p.id == "issue12-142").unwrap();
-    let work = dir().join("issue12-142");
-    let _ = std::fs::remove_dir_all(&work);
-    let file = corpus::write_problem(p, &work).unwrap();
-    let out = work.join("out");
+    let (p, work, file, out) = corpus_problem_in("issue12-142", "issue12-142");
     let summary = suslov::app::run_solve(&file, &out, &mut |_| {}).expect("a run");
     let record = &summary.cases[0].extra["infimum_trajectory"];
     assert!(
@@ -441,12 +436,7 @@ fn a_cheaper_direct_minimum_withholds_the_eps_optimal_claim() {
 /// the ε-optimal control written next to the partial solution.
 #[test]
 fn the_command_line_says_when_a_problem_has_no_minimizer() {
-    let all = corpus::generate(corpus::DEFAULT_N, corpus::SEED);
-    let p = all.iter().find(|p| p.id == "fast-019").unwrap();
-    let work = dir().join("fast-019-cli");
-    let _ = std::fs::remove_dir_all(&work);
-    let file = corpus::write_problem(p, &work).unwrap();
-    let out = work.join("out");
+    let (p, work, file, out) = corpus_problem_in("fast-019", "fast-019-cli");
     let run = std::process::Command::new(env!("CARGO_BIN_EXE_suslov"))
         .arg("solve")
         .arg(&file)
@@ -474,4 +464,26 @@ fn the_command_line_says_when_a_problem_has_no_minimizer() {
     assert!(out.join("trajectory.partial.csv").is_file());
     let check = corpus::infimum_check(&p.toml, &work, &out).expect("written");
     assert!(check.passed(), "{:?}", check.failures);
+}
+
+/// Corpus problem `id` written to a fresh `dir()/work`: the problem, that directory, its
+/// problem file and the output directory to use.
+fn corpus_problem_in(
+    id: &str,
+    work: &str,
+) -> (
+    corpus::CorpusProblem,
+    std::path::PathBuf,
+    std::path::PathBuf,
+    std::path::PathBuf,
+) {
+    let p = corpus::generate(corpus::DEFAULT_N, corpus::SEED)
+        .into_iter()
+        .find(|p| p.id == id)
+        .unwrap_or_else(|| panic!("no corpus problem {id}"));
+    let work = dir().join(work);
+    let _ = std::fs::remove_dir_all(&work);
+    let file = corpus::write_problem(&p, &work).unwrap();
+    let out = work.join("out");
+    (p, work, file, out)
 }
